@@ -1,0 +1,230 @@
+//! The 16-byte header and the streaming frame decoder: split at every byte offset, merged
+//! frames, garbage between frames, oversize, zero length, bad reserved bytes.
+
+use x30_panel::proto::frame::*;
+
+fn frame(id: u16, body: &[u8]) -> Vec<u8> {
+    let mut out = vec![0u8; HEADER_LEN + body.len()];
+    let n = encode(&mut out, id, body).unwrap();
+    assert_eq!(n, out.len());
+    out
+}
+
+/// Feeds `bytes` in chunks of `chunk` and collects everything the decoder reports.
+fn run<const N: usize>(
+    decoder: &mut FrameDecoder<N>,
+    bytes: &[u8],
+    chunk: usize,
+) -> Vec<Result<(u16, Vec<u8>), FrameError>> {
+    let mut out = Vec::new();
+    for piece in bytes.chunks(chunk.max(1)) {
+        let mut rest = piece;
+        while !rest.is_empty() {
+            let n = decoder.feed(rest);
+            rest = &rest[n..];
+            while let Some(item) = decoder.decode() {
+                out.push(item.map(|f| (f.message_id, f.asdu.to_vec())));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn header_layout() {
+    let h = Header {
+        asdu_len: 0x1234,
+        message_id: 0xBEEF,
+    };
+    let bytes = h.encode();
+    assert_eq!(
+        bytes,
+        [
+            0xEB, 0x90, 0xEB, 0x90, 0x34, 0x12, 0xEF, 0xBE, 0, 0, 0, 0, 0, 0, 0, 0
+        ]
+    );
+    assert_eq!(Header::decode(&bytes), Ok(h));
+    let mut bad = bytes;
+    bad[1] = 0x91;
+    assert_eq!(Header::decode(&bad), Err(HeaderError::BadSync));
+    let mut bad = bytes;
+    bad[15] = 1;
+    assert_eq!(Header::decode(&bad), Err(HeaderError::BadReserved));
+}
+
+#[test]
+fn message_ids_count_from_zero_and_wrap() {
+    let mut ids = MessageIds::new();
+    assert_eq!(ids.next_id(), 0);
+    assert_eq!(ids.next_id(), 1);
+    for _ in 2..65535 {
+        ids.next_id();
+    }
+    assert_eq!(ids.next_id(), 65535);
+    assert_eq!(ids.next_id(), 0);
+}
+
+#[test]
+fn encode_refuses_small_buffers_and_long_bodies() {
+    let mut small = [0u8; 20];
+    assert_eq!(
+        encode(&mut small, 1, b"12345"),
+        Err(EncodeError::BufferTooSmall)
+    );
+    assert_eq!(
+        encode(&mut small[..10], 1, b""),
+        Err(EncodeError::BufferTooSmall)
+    );
+    let body = vec![b'x'; 65536];
+    let mut big = vec![0u8; 70000];
+    assert_eq!(encode(&mut big, 1, &body), Err(EncodeError::AsduTooLong));
+    assert_eq!(encode(&mut big, 1, &body[..65535]), Ok(65535 + 16));
+}
+
+#[test]
+fn split_at_every_byte_offset() {
+    let bytes = [frame(7, b"<a>first</a>"), frame(8, b"<b>second</b>")].concat();
+    for split in 0..=bytes.len() {
+        let mut d = FrameDecoder::<256>::new();
+        let mut got = run(&mut d, &bytes[..split], 1000);
+        got.extend(run(&mut d, &bytes[split..], 1000));
+        assert_eq!(
+            got,
+            vec![
+                Ok((7, b"<a>first</a>".to_vec())),
+                Ok((8, b"<b>second</b>".to_vec()))
+            ],
+            "split at {split}"
+        );
+    }
+}
+
+#[test]
+fn one_byte_at_a_time_and_merged() {
+    let bytes = [frame(1, b"one"), frame(2, b"two"), frame(3, b"three")].concat();
+    for chunk in [1, 2, 3, 5, 16, 17, bytes.len()] {
+        let mut d = FrameDecoder::<64>::new();
+        let got = run(&mut d, &bytes, chunk);
+        assert_eq!(got.len(), 3, "chunk {chunk}");
+        assert_eq!(got[2], Ok((3, b"three".to_vec())));
+    }
+}
+
+#[test]
+fn zero_length_frame() {
+    let bytes = [frame(5, b""), frame(6, b"x")].concat();
+    let mut d = FrameDecoder::<64>::new();
+    assert_eq!(
+        run(&mut d, &bytes, 3),
+        vec![Ok((5, vec![])), Ok((6, b"x".to_vec()))]
+    );
+}
+
+#[test]
+fn garbage_between_frames_is_reported_and_skipped() {
+    let bytes = [
+        b"junk".to_vec(),
+        frame(1, b"a"),
+        vec![0xEB, 0x90, 0x00, 0xEB],
+        frame(2, b"b"),
+        b"tail".to_vec(),
+    ]
+    .concat();
+    for chunk in [1, 4, 7, 100] {
+        let mut d = FrameDecoder::<64>::new();
+        let got = run(&mut d, &bytes, chunk);
+        assert_eq!(
+            got,
+            vec![
+                Err(FrameError::Garbage { skipped: 4 }),
+                Ok((1, b"a".to_vec())),
+                Err(FrameError::Garbage { skipped: 4 }),
+                Ok((2, b"b".to_vec())),
+            ],
+            "chunk {chunk}"
+        );
+    }
+}
+
+/// A sync sequence whose first bytes repeat must not hide the real one (EB 90 EB 90 EB 90 ...).
+#[test]
+fn overlapping_sync_prefix() {
+    let bytes = [vec![0xEB, 0x90], frame(9, b"z")].concat();
+    let mut d = FrameDecoder::<64>::new();
+    assert_eq!(
+        run(&mut d, &bytes, 1),
+        vec![
+            Err(FrameError::Garbage { skipped: 2 }),
+            Ok((9, b"z".to_vec()))
+        ]
+    );
+}
+
+#[test]
+fn oversize_frame_is_skipped_without_losing_the_next() {
+    let big = vec![b'B'; 300];
+    let bytes = [
+        frame(1, &big),
+        frame(2, b"next"),
+        frame(3, &vec![b'C'; 48]),
+        frame(4, b"after"),
+    ]
+    .concat();
+    for chunk in [1, 13, 64, 1000] {
+        let mut d = FrameDecoder::<64>::new();
+        let got = run(&mut d, &bytes, chunk);
+        assert_eq!(
+            got,
+            vec![
+                Err(FrameError::TooLong {
+                    message_id: 1,
+                    asdu_len: 300
+                }),
+                Ok((2, b"next".to_vec())),
+                Ok((3, vec![b'C'; 48])),
+                Ok((4, b"after".to_vec())),
+            ],
+            "chunk {chunk}"
+        );
+    }
+    assert_eq!(FrameDecoder::<64>::MAX_ASDU, 48);
+}
+
+#[test]
+fn bad_reserved_bytes_resynchronise() {
+    let mut bad = frame(1, b"bad");
+    bad[10] = 0x55;
+    let bytes = [bad, frame(2, b"good")].concat();
+    let mut d = FrameDecoder::<64>::new();
+    let got = run(&mut d, &bytes, 5);
+    assert_eq!(got[0], Err(FrameError::BadReserved { message_id: 1 }));
+    assert!(matches!(got[1], Err(FrameError::Garbage { .. })));
+    assert_eq!(got.last(), Some(&Ok((2, b"good".to_vec()))));
+    assert_eq!(got.len(), 3);
+}
+
+#[test]
+fn spare_and_commit_read_in_place() {
+    let bytes = frame(42, b"in place");
+    let mut d = FrameDecoder::<32>::new();
+    let spare = d.spare();
+    assert_eq!(spare.len(), 32);
+    spare[..bytes.len()].copy_from_slice(&bytes);
+    d.commit(bytes.len());
+    let f = d.decode().unwrap().unwrap();
+    assert_eq!((f.message_id, f.asdu), (42, &b"in place"[..]));
+    assert_eq!(d.decode(), None);
+    // After compaction the whole buffer is free again.
+    assert_eq!(d.spare().len(), 32);
+}
+
+#[test]
+fn clear_forgets_a_partial_frame() {
+    let bytes = frame(1, b"abcdef");
+    let mut d = FrameDecoder::<64>::new();
+    d.feed(&bytes[..10]);
+    assert_eq!(d.decode(), None);
+    d.clear();
+    let got = run(&mut d, &frame(2, b"x"), 64);
+    assert_eq!(got, vec![Ok((2, b"x".to_vec()))]);
+}

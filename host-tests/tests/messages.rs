@@ -1,0 +1,899 @@
+//! Every message of SPEC §4 in both directions: the vendor document's sample decoded with
+//! each value asserted, then encoded and decoded again, equal.
+
+use x30_panel::proto::codes::*;
+use x30_panel::proto::message::*;
+use x30_panel::proto::time::Timestamp;
+
+const T0: Timestamp = Timestamp::DOCUMENT_EPOCH;
+const T1: Timestamp = Timestamp {
+    second: 1,
+    ..Timestamp::DOCUMENT_EPOCH
+};
+
+fn request(xml: &str) -> Decoded<Request> {
+    Request::decode(xml.as_bytes()).unwrap_or_else(|e| panic!("{e:?} decoding\n{xml}"))
+}
+
+fn response(xml: &str) -> Decoded<Response> {
+    Response::decode(xml.as_bytes()).unwrap_or_else(|e| panic!("{e:?} decoding\n{xml}"))
+}
+
+/// Encodes the decoded message and decodes it again: it must come back equal.
+fn assert_request_round_trip(decoded: &Decoded<Request>) {
+    let mut buf = [0u8; 4096];
+    let n = decoded.message.encode(&decoded.time, &mut buf).unwrap();
+    let again = Request::decode(&buf[..n]).unwrap();
+    assert_eq!(&again, decoded, "{}", String::from_utf8_lossy(&buf[..n]));
+}
+
+fn assert_response_round_trip(decoded: &Decoded<Response>) {
+    let mut buf = [0u8; 4096];
+    let n = decoded.message.encode(&decoded.time, &mut buf).unwrap();
+    let again = Response::decode(&buf[..n]).unwrap();
+    assert_eq!(&again, decoded, "{}", String::from_utf8_lossy(&buf[..n]));
+}
+
+/// The requests with `<Items/>`, as the document writes them (both declaration styles).
+#[test]
+fn empty_requests() {
+    let cases = [
+        ("1002", "\"1.0\" encoding=\"UTF-8\"", Request::Status),
+        ("1004", "\"1.0\" encoding=\"UTF-8\"", Request::CancelNav),
+        ("1007", "\"1.0\" encoding=\"UTF-8\"", Request::NavStatus),
+        ("1008", "'1.0' encoding='utf-8'", Request::MotorTemperatures),
+        ("2001", "'1.0' encoding='utf-8'", Request::Battery),
+        ("2002", "'1.0' encoding='utf-8'", Request::Perception),
+    ];
+    for (ty, decl, expected) in cases {
+        let xml = format!(
+            "<?xml version={decl}?>\n<PatrolDevice>\n  <Type>{ty}</Type>\n  <Command>1</Command>\n  <Time>2023-01-01 00:00:00</Time>\n  <Items/>\n</PatrolDevice>\n"
+        );
+        let decoded = request(&xml);
+        assert_eq!(decoded.message, expected);
+        assert_eq!(decoded.time, T0);
+        assert_request_round_trip(&decoded);
+    }
+}
+
+/// Our encoder writes the document's own layout for an empty request, byte for byte.
+#[test]
+fn encoder_writes_the_document_layout() {
+    let mut buf = [0u8; 512];
+    let n = Request::Status.encode(&T0, &mut buf).unwrap();
+    assert_eq!(
+        std::str::from_utf8(&buf[..n]).unwrap(),
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<PatrolDevice>\n  <Type>1002</Type>\n  <Command>1</Command>\n  <Time>2023-01-01 00:00:00</Time>\n  <Items/>\n</PatrolDevice>\n"
+    );
+    let n = Request::Motion(MotionCommand::Forward(Speed::Default))
+        .encode(&T0, &mut buf)
+        .unwrap();
+    assert_eq!(
+        std::str::from_utf8(&buf[..n]).unwrap(),
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<PatrolDevice>\n  <Type>2</Type>\n  <Command>1</Command>\n  <Time>2023-01-01 00:00:00</Time>\n  <Items>\n    <Value>-1</Value>\n  </Items>\n</PatrolDevice>\n"
+    );
+}
+
+#[test]
+fn status_1002_response() {
+    let decoded = response(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<PatrolDevice>
+  <Type>1002</Type>
+  <Command>1</Command>
+  <Time>2023-01-01 00:00:01</Time>
+  <Items>
+    <MotionState>0</MotionState>
+    <PosX>0.0</PosX>
+    <PosY>0.0</PosY>
+    <PosZ>0.0</PosZ>
+    <Roll>0.0</Roll>
+    <Pitch>0.0</Pitch>
+    <Yaw>0.0</Yaw>
+    <Speed>0.0</Speed>
+    <CurOdom>0.0</CurOdom>
+    <SumOdom>0.0</SumOdom>
+    <Res>0.0</Res>
+    <X0>0.0</X0>
+    <Y0>0.0</Y0>
+    <H>1000</H>
+    <Electricity>50</Electricity>
+    <Location>0</Location>
+    <GaitState>0</GaitState>
+    <MotorState>0</MotorState>
+    <ChargeState>0</ChargeState>
+    <ControlMode>0</ControlMode>
+    <OnDockState>0</OnDockState>
+</Items>
+</PatrolDevice>"#,
+    );
+    assert_eq!(decoded.time, T1);
+    let Response::Status(s) = decoded.message else {
+        panic!("{decoded:?}")
+    };
+    assert_eq!(s.motion_state, MotionState::LyingDown);
+    for v in [s.pos_x, s.pos_y, s.pos_z, s.roll, s.pitch, s.yaw, s.speed] {
+        assert_eq!(v, 0.0);
+    }
+    assert_eq!(
+        (s.cur_odom, s.sum_odom, s.res, s.x0, s.y0),
+        (0.0, 0.0, 0.0, 0.0, 0.0)
+    );
+    assert_eq!(s.h, 1000);
+    assert_eq!(s.electricity, 50);
+    assert_eq!(s.location, Location::Localized);
+    assert_eq!(s.gait_state, GaitState::Walk);
+    assert_eq!(s.motor_state, MotorState::Normal);
+    assert_eq!(s.charge_state, ChargeState::NotCharging);
+    assert_eq!(s.control_mode, ControlMode::Manual);
+    assert_eq!(s.on_dock_state, OnDockState::OffDock);
+    assert!(!s.is_unavailable(), "H and Electricity are not 0");
+    assert_response_round_trip(&decoded);
+}
+
+/// A real robot's answer: extra items between the documented ones, 8–9 digit floats.
+#[test]
+fn status_1002_from_a_real_robot_with_extra_items() {
+    let decoded = response(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<PatrolDevice>\n<Type>1002</Type>\n<Command>1</Command>\n<Time>2024-06-30 23:59:59</Time>\n<Items>\n\
+         <MotionState>4</MotionState><PosX>12.3456783</PosX><PosY>-0.00023393621</PosY><PosZ>0.0312</PosZ>\
+         <AngleYaw>1.57079637</AngleYaw><Roll>0.0012</Roll><Pitch>-0.0034</Pitch><Yaw>3.14159274</Yaw><Speed>0.5</Speed>\
+         <CurRuntime>3600</CurRuntime><CurOdom>1.25</CurOdom><SumRuntime>123456</SumRuntime><SumOdom>1234.5</SumOdom>\
+         <Res>0.05</Res><X0>-10.5</X0><Y0>-20.25</Y0><H>800</H><Electricity>87</Electricity><RTKState>0</RTKState>\
+         <Location>1</Location><GaitState>8</GaitState><MotorState>1</MotorState><MapUpdateState>2</MapUpdateState>\
+         <ChargeState>1</ChargeState><ControlMode>1</ControlMode><OnDockState>1</OnDockState>\n</Items>\n</PatrolDevice>",
+    );
+    assert_eq!(
+        decoded.time,
+        Timestamp {
+            year: 2024,
+            month: 6,
+            day: 30,
+            hour: 23,
+            minute: 59,
+            second: 59
+        }
+    );
+    let Response::Status(s) = decoded.message else {
+        panic!()
+    };
+    assert_eq!(s.motion_state, MotionState::Stepping);
+    assert_eq!(s.pos_x, 12.3456783);
+    assert_eq!(s.pos_y, -0.00023393621);
+    assert_eq!(s.yaw, 3.14159274);
+    assert_eq!(s.sum_odom, 1234.5);
+    assert_eq!(s.res, 0.05);
+    assert_eq!((s.x0, s.y0, s.h), (-10.5, -20.25, 800));
+    assert_eq!(s.electricity, 87);
+    assert_eq!(s.location, Location::Lost);
+    assert_eq!(s.gait_state, GaitState::AccumulatedFrameStairs45);
+    assert_eq!(s.motor_state, MotorState::OverTemperature);
+    assert_eq!(s.charge_state, ChargeState::Charging);
+    assert_eq!(s.control_mode, ControlMode::Automatic);
+    assert_eq!(s.on_dock_state, OnDockState::OnDock);
+    assert_response_round_trip(&decoded);
+}
+
+#[test]
+fn status_all_zero_is_unavailable() {
+    let items: String = [
+        "MotionState",
+        "PosX",
+        "PosY",
+        "PosZ",
+        "Roll",
+        "Pitch",
+        "Yaw",
+        "Speed",
+        "CurOdom",
+        "SumOdom",
+        "Res",
+        "X0",
+        "Y0",
+        "H",
+        "Electricity",
+        "Location",
+        "GaitState",
+        "MotorState",
+        "ChargeState",
+        "ControlMode",
+        "OnDockState",
+    ]
+    .iter()
+    .map(|n| format!("<{n}>0</{n}>"))
+    .collect();
+    let xml = format!(
+        "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items>{items}</Items></PatrolDevice>"
+    );
+    let Response::Status(s) = response(&xml).message else {
+        panic!()
+    };
+    assert!(s.is_unavailable());
+    let moved = RobotStatus { pos_x: 0.1, ..s };
+    assert!(!moved.is_unavailable());
+    let charged = RobotStatus {
+        electricity: 1,
+        ..s
+    };
+    assert!(!charged.is_unavailable());
+}
+
+#[test]
+fn status_missing_item_is_named() {
+    let xml = "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><MotionState>0</MotionState></Items></PatrolDevice>";
+    assert_eq!(
+        Response::decode(xml.as_bytes()),
+        Err(DecodeError::MissingItem("PosX"))
+    );
+}
+
+const NAV_REQUEST: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<PatrolDevice>
+  <Type>1003</Type>
+  <Command>1</Command>
+  <Time>2023-01-01 00:00:00</Time>
+  <Items>
+      <Value>100</Value>
+      <MapID>1</MapID>
+      <PosX>0.0</PosX>
+      <PosY>0.0</PosY>
+      <PosZ>0.0</PosZ>
+      <AngleYaw>0.0</AngleYaw>
+      <PointInfo>0</PointInfo>
+      <Gait>0</Gait>
+      <Speed>0</Speed>
+      <Manner>0</Manner>
+      <ObsMode>0</ObsMode>
+      <NavMode>0</NavMode>
+      <Terrain>0</Terrain>
+      <Posture>0</Posture>
+  </Items>
+</PatrolDevice>"#;
+
+#[test]
+fn nav_task_1003_request() {
+    let decoded = request(NAV_REQUEST);
+    let Request::NavTask(task) = &decoded.message else {
+        panic!()
+    };
+    assert_eq!(task.points.len(), 1);
+    let p = task.points[0];
+    assert_eq!(
+        p,
+        NavPoint::new(100, 1, 0.0, 0.0, 0.0, 0.0, PointInfo::Transition)
+    );
+    assert_eq!(p.gait, NavGait::Walk);
+    assert_eq!(p.speed, NavSpeed::Normal);
+    assert_eq!(p.manner, Manner::Forwards);
+    assert_eq!(p.obs_mode, ObsMode::Enabled);
+    assert_eq!(p.nav_mode, NavMode::StraightLine);
+    assert_eq!(p.terrain, Terrain::Solid);
+    assert_eq!(p.posture, Posture::Normal);
+    assert_request_round_trip(&decoded);
+}
+
+#[test]
+fn nav_task_with_every_value_set() {
+    let xml = NAV_REQUEST
+        .replace("<Value>100", "<Value>7")
+        .replace("<MapID>1</MapID>", "<MapID>3</MapID>")
+        .replace("<PosX>0.0", "<PosX>-1.25")
+        .replace("<PosY>0.0", "<PosY>2.5")
+        .replace("<PosZ>0.0", "<PosZ>0.125")
+        .replace("<AngleYaw>0.0", "<AngleYaw>-3.1415927")
+        .replace("<PointInfo>0", "<PointInfo>3")
+        .replace("<Gait>0", "<Gait>7")
+        .replace("<Speed>0", "<Speed>2")
+        .replace("<Manner>0", "<Manner>1")
+        .replace("<ObsMode>0", "<ObsMode>1")
+        .replace("<NavMode>0", "<NavMode>1")
+        .replace("<Terrain>0", "<Terrain>3")
+        .replace("<Posture>0", "<Posture>1");
+    let decoded = request(&xml);
+    let Request::NavTask(task) = &decoded.message else {
+        panic!()
+    };
+    let p = task.points[0];
+    assert_eq!((p.value, p.map_id), (7, 3));
+    assert_eq!(
+        (p.pos_x, p.pos_y, p.pos_z, p.angle_yaw),
+        (-1.25, 2.5, 0.125, -3.1415927)
+    );
+    assert_eq!(p.point_info, PointInfo::Charging);
+    assert_eq!(p.gait, NavGait::AccumulatedFrameStairs45);
+    assert_eq!(p.speed, NavSpeed::High);
+    assert_eq!(p.manner, Manner::Backwards);
+    assert_eq!(p.obs_mode, ObsMode::Disabled);
+    assert_eq!(p.nav_mode, NavMode::Autonomous);
+    assert_eq!(p.terrain, Terrain::AccumulatedFrame);
+    assert_eq!(p.posture, Posture::Crouched);
+    assert_request_round_trip(&decoded);
+}
+
+/// Several `<Items>` blocks, `MapId` spelling, no declaration, tabs and comments (SPEC §5).
+#[test]
+fn nav_task_with_waypoints_as_real_clients_send_it() {
+    let point = |value: i32, x: f32| {
+        format!(
+            "\t<Items>\n\t\t<!-- waypoint {value} -->\n\t\t<Value>{value}</Value>\n\t\t<MapId>2</MapId>\n\t\t<PosX>{x}</PosX>\n\t\t<PosY>1</PosY>\n\t\t<PosZ>0</PosZ>\n\t\t<AngleYaw>0</AngleYaw>\n\t\t<PointInfo>1</PointInfo>\n\t\t<Gait>0</Gait>\n\t\t<Speed>1</Speed>\n\t\t<Manner>0</Manner>\n\t\t<ObsMode>0</ObsMode>\n\t\t<NavMode>1</NavMode>\n\t\t<Terrain>0</Terrain>\n\t</Items>\n"
+        )
+    };
+    let xml = format!(
+        "<PatrolDevice>\n\t<Time>2023-01-01 00:00:00</Time>\n{}{}\t<Command>1</Command>\n\t<Type>1003</Type>\n</PatrolDevice>",
+        point(1, 0.5),
+        point(2, 4.75)
+    );
+    let decoded = request(&xml);
+    let Request::NavTask(task) = &decoded.message else {
+        panic!()
+    };
+    assert_eq!(task.points.len(), 2);
+    assert_eq!(task.points[0].value, 1);
+    assert_eq!(task.points[1].value, 2);
+    assert_eq!(task.points[1].pos_x, 4.75);
+    assert!(task.points.iter().all(|p| p.map_id == 2));
+    assert!(
+        task.points.iter().all(|p| p.posture == Posture::Normal),
+        "absent Posture is normal height"
+    );
+    assert_eq!(task.target().map(|p| p.value), Some(2));
+    assert_request_round_trip(&decoded);
+}
+
+#[test]
+fn nav_task_encoder_writes_map_id_as_the_document_spells_it() {
+    let task = NavTask::to_point(NavPoint::new(5, 1, 1.0, 2.0, 0.0, 0.5, PointInfo::Charging));
+    let mut buf = [0u8; 1024];
+    let n = Request::NavTask(task).encode(&T0, &mut buf).unwrap();
+    let text = std::str::from_utf8(&buf[..n]).unwrap();
+    assert!(text.contains("<MapID>1</MapID>"), "{text}");
+    assert!(!text.contains("MapId"), "{text}");
+}
+
+#[test]
+fn nav_result_1003_response() {
+    let decoded = response(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<PatrolDevice>
+  <Type>1003</Type>
+  <Command>1</Command>
+  <Time>2023-01-01 00:00:01</Time>
+  <Items>
+    <Value>100</Value>
+    <ErrorCode>0</ErrorCode>
+    <ErrorStatus>0</ErrorStatus>
+  </Items>
+</PatrolDevice>"#,
+    );
+    assert_eq!(
+        decoded.message,
+        Response::NavResult(NavResult {
+            value: 100,
+            outcome: NavOutcome::Succeeded,
+            status: ErrorStatus::Default
+        })
+    );
+    assert_response_round_trip(&decoded);
+
+    let failed = response(
+        "<PatrolDevice><Type>1003</Type><Command>1</Command><Time>2023-01-01 00:00:01</Time><Items><Value>3</Value><ErrorCode>1</ErrorCode><ErrorStatus>41730</ErrorStatus></Items></PatrolDevice>",
+    );
+    let Response::NavResult(r) = failed.message else {
+        panic!()
+    };
+    assert_eq!(r.outcome, NavOutcome::Failed);
+    assert_eq!(r.status, ErrorStatus::BatteryTooLow);
+    assert_eq!(r.status.description(), "battery too low");
+}
+
+#[test]
+fn cancel_1004_response() {
+    let decoded = response(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<PatrolDevice>
+    <Type>1004</Type>
+    <Command>1</Command>
+    <Time>2023-01-01 00:00:01</Time>
+    <Items>
+        <ErrorCode>0</ErrorCode>
+    </Items>
+</PatrolDevice>"#,
+    );
+    assert_eq!(
+        decoded.message,
+        Response::CancelNav(CommandAck {
+            result: CommandResult::Success
+        })
+    );
+    assert_response_round_trip(&decoded);
+}
+
+#[test]
+fn nav_status_1007_response() {
+    let decoded = response(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<PatrolDevice>
+  <Type>1007</Type>
+  <Command>1</Command>
+  <Time>2023-01-01 00:00:01</Time>
+      <Items>
+          <Value>0</Value>
+          <Status>0</Status>
+          <ErrorCode>0</ErrorCode>
+     </Items>
+ </PatrolDevice>"#,
+    );
+    assert_eq!(
+        decoded.message,
+        Response::NavStatus(NavTaskState {
+            value: 0,
+            status: NavTaskStatus::Finished,
+            error_code: NavTaskStatus::Finished
+        })
+    );
+    assert_response_round_trip(&decoded);
+    let cannot = response(
+        "<PatrolDevice><Type>1007</Type><Command>1</Command><Time>2023-01-01 00:00:01</Time><Items><Value>9</Value><Status>-1</Status><ErrorCode>-1</ErrorCode></Items></PatrolDevice>",
+    );
+    let Response::NavStatus(s) = cannot.message else {
+        panic!()
+    };
+    assert_eq!((s.value, s.status), (9, NavTaskStatus::CannotRun));
+}
+
+#[test]
+fn motion_2_request_and_response() {
+    let decoded = request(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<PatrolDevice>
+    <Type>2</Type>
+    <Command>1</Command>
+    <Time>2023-01-01 00:00:00</Time>
+    <Items>
+        <Value>-1</Value>
+    </Items>
+</PatrolDevice>"#,
+    );
+    assert_eq!(
+        decoded.message,
+        Request::Motion(MotionCommand::Forward(Speed::Default))
+    );
+    assert_request_round_trip(&decoded);
+
+    let ack = response(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<PatrolDevice>
+    <Type>2</Type>
+    <Command>1</Command>
+    <Time>2023-01-01 00:00:00</Time>
+    <Items>
+        <Value>-1</Value>
+        <ErrorCode>0</ErrorCode>
+    </Items>
+</PatrolDevice>"#,
+    );
+    assert_eq!(
+        ack.message,
+        Response::Motion(
+            MotionCommandCode::Forward,
+            MotionAck {
+                value: -1.0,
+                result: CommandResult::Success
+            }
+        )
+    );
+    assert_response_round_trip(&ack);
+}
+
+/// All eleven V1.0.12 commands and the vendor extensions, with their Command and Value.
+#[test]
+fn motion_every_command() {
+    let cases: Vec<(MotionCommand, i32, &str)> = vec![
+        (MotionCommand::Forward(Speed::Value(1.5)), 1, "1.5"),
+        (MotionCommand::Backward(Speed::Value(1.3)), 2, "1.3"),
+        (MotionCommand::TurnLeft(Speed::Value(0.45)), 3, "0.45"),
+        (MotionCommand::TurnRight(Speed::Default), 4, "-1"),
+        (MotionCommand::ZeroVelocity, 6, "-1"),
+        (MotionCommand::StrafeLeft(Speed::Value(0.1)), 11, "0.1"),
+        (MotionCommand::StrafeRight(Speed::Value(0.15)), 12, "0.15"),
+        (MotionCommand::SoftEmergencyStop, 13, "-1"),
+        (MotionCommand::StopStepping, 14, "-1"),
+        (MotionCommand::LieDown, 15, "-1"),
+        (
+            MotionCommand::SwitchGait(MotionGait::PerceptionStairs),
+            20,
+            "4",
+        ),
+        (MotionCommand::StandUp, 16, "-1"),
+        (MotionCommand::ForceControl, 17, "-1"),
+        (MotionCommand::StartStepping, 18, "-1"),
+        (MotionCommand::BodyHeight(0.25), 19, "0.25"),
+        (MotionCommand::GoCharging, 21, "-1"),
+        (MotionCommand::LeaveCharger, 22, "-1"),
+    ];
+    for (command, code, value) in cases {
+        let request = Request::Motion(command);
+        assert_eq!(request.command(), code);
+        let mut buf = [0u8; 512];
+        let n = request.encode(&T0, &mut buf).unwrap();
+        let text = std::str::from_utf8(&buf[..n]).unwrap();
+        assert!(
+            text.contains(&format!("<Command>{code}</Command>")),
+            "{text}"
+        );
+        assert!(text.contains(&format!("<Value>{value}</Value>")), "{text}");
+        assert_eq!(Request::decode(&buf[..n]).unwrap().message, request);
+    }
+}
+
+#[test]
+fn motion_unknown_command_is_reported() {
+    let xml = "<PatrolDevice><Type>2</Type><Command>99</Command><Time>2023-01-01 00:00:00</Time><Items><Value>-1</Value></Items></PatrolDevice>";
+    assert_eq!(
+        Request::decode(xml.as_bytes()),
+        Err(DecodeError::UnknownCommand(99))
+    );
+    // The answer to an unknown command still decodes: its code is kept as received.
+    let xml = "<PatrolDevice><Type>2</Type><Command>99</Command><Time>2023-01-01 00:00:00</Time><Items><Value>-1</Value><ErrorCode>1</ErrorCode></Items></PatrolDevice>";
+    let Response::Motion(code, ack) = Response::decode(xml.as_bytes()).unwrap().message else {
+        panic!()
+    };
+    assert_eq!(code, MotionCommandCode::Unknown(99));
+    assert_eq!(ack.result, CommandResult::Failure);
+}
+
+#[test]
+fn battery_2001_response() {
+    let decoded = response(
+        r#"<?xml version='1.0' encoding='utf-8'?>
+<PatrolDevice>
+  <Type>2001</Type>
+  <Command>1</Command>
+  <Time>2023-01-01 00:00:00</Time>
+  <Items>
+    <Voltage>82</Voltage>
+    <Current>653</Current>
+    <RemainingCapacity>1947</RemainingCapacity>
+    <NominalCapacity>2004</NominalCapacity>
+    <Cycles>12</Cycles>
+    <ProtectedState>0</ProtectedState>
+    <BatteryLevel>97</BatteryLevel>
+    <BatteryTemperature>0</BatteryTemperature>
+  </Items>
+</PatrolDevice>"#,
+    );
+    assert_eq!(
+        decoded.message,
+        Response::Battery(Battery {
+            voltage: 82,
+            current: 653,
+            remaining_capacity: 1947,
+            nominal_capacity: 2004,
+            cycles: 12,
+            protected_state: ProtectedState::Normal,
+            battery_level: 97,
+            battery_temperature: Some(0.0),
+        })
+    );
+    assert_response_round_trip(&decoded);
+}
+
+/// Robots before V1.0.11 send no BatteryTemperature; that must not fail the answer.
+#[test]
+fn battery_without_temperature() {
+    let xml = "<PatrolDevice><Type>2001</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><Voltage>50</Voltage><Current>-120</Current><RemainingCapacity>100</RemainingCapacity><NominalCapacity>2004</NominalCapacity><Cycles>1</Cycles><ProtectedState>1</ProtectedState><BatteryLevel>5</BatteryLevel></Items></PatrolDevice>";
+    let decoded = response(xml);
+    let Response::Battery(b) = decoded.message else {
+        panic!()
+    };
+    assert_eq!(b.battery_temperature, None);
+    assert_eq!(b.current, -120);
+    assert_eq!(b.protected_state, ProtectedState::Triggered);
+    assert_response_round_trip(&decoded);
+}
+
+#[test]
+fn perception_2002_response() {
+    let decoded = response(
+        r#"<?xml version='1.0' encoding='utf-8'?>
+<PatrolDevice>
+  <Type>2002</Type>
+  <Command>1</Command>
+  <Time>2023-01-01 00:00:00</Time>
+  <Items>
+    <ObsState>0</ObsState>
+  </Items>
+</PatrolDevice>"#,
+    );
+    assert_eq!(
+        decoded.message,
+        Response::Perception(Perception {
+            obs_state: ObsState::Clear
+        })
+    );
+    assert_response_round_trip(&decoded);
+}
+
+#[test]
+fn light_1101_request_and_response() {
+    let decoded = request(
+        r#"<?xml version='1.0' encoding='utf-8'?>
+<PatrolDevice>
+    <Type>1101</Type>
+    <Command>1</Command>
+    <Time>2023-01-01 00:00:00</Time>
+    <Items>
+        <Red>0</Red>
+        <Green>255</Green>
+        <Blue>16</Blue>
+        <PER>1</PER>
+        <LUM>80</LUM>
+    </Items>
+</PatrolDevice>"#,
+    );
+    assert_eq!(
+        decoded.message,
+        Request::Light(Light {
+            red: 0,
+            green: 255,
+            blue: 16,
+            effect: LightEffect::Breathing,
+            brightness: 80
+        })
+    );
+    assert_request_round_trip(&decoded);
+
+    let ack = response(
+        "<?xml version='1.0' encoding='utf-8'?>\n<PatrolDevice>\n    <Type>1101</Type>\n    <Command>1</Command>\n    <Time>2023-01-01 00:00:00</Time>\n    <Items>\n       <ErrorCode>0</ErrorCode>\n     </Items>\n</PatrolDevice>",
+    );
+    assert_eq!(
+        ack.message,
+        Response::Light(CommandAck {
+            result: CommandResult::Success
+        })
+    );
+    assert_response_round_trip(&ack);
+}
+
+/// The document's own 1101 sample has non-integer and negative values (SPEC §4.8): they
+/// are not valid and must be rejected with the item named.
+#[test]
+fn light_document_sample_values_are_rejected() {
+    let xml = "<?xml version='1.0' encoding='utf-8'?><PatrolDevice><Type>1101</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><Red>0</Red><Green>3.847</Green><Blue>-6.127</Blue><PER>0.082</PER><LUM>3.109</LUM></Items></PatrolDevice>";
+    let err = Request::decode(xml.as_bytes()).unwrap_err();
+    assert!(
+        matches!(err, DecodeError::BadItem { item: "Green", .. }),
+        "{err:?}"
+    );
+    let xml = xml.replace("3.847", "256");
+    assert!(matches!(
+        Request::decode(xml.as_bytes()),
+        Err(DecodeError::BadItem { item: "Green", .. })
+    ));
+}
+
+#[test]
+fn relocalize_2101_request_and_response() {
+    let decoded = request(
+        r#"<?xml version='1.0' encoding='utf-8'?>
+<PatrolDevice>
+  <Type>2101</Type>
+  <Command>1</Command>
+  <Time>2023-01-01 00:00:00</Time>
+  <Items>
+    <PosX>1.5</PosX>
+    <PosY>-2.25</PosY>
+    <PosZ>0.0</PosZ>
+    <Yaw>0.785398185</Yaw>
+  </Items>
+</PatrolDevice>"#,
+    );
+    assert_eq!(
+        decoded.message,
+        Request::Relocalize(Relocalize {
+            pos_x: 1.5,
+            pos_y: -2.25,
+            pos_z: 0.0,
+            yaw: 0.785398185
+        })
+    );
+    assert_request_round_trip(&decoded);
+    let ack = response(
+        "<?xml version='1.0' encoding='utf-8'?>\n<PatrolDevice>\n  <Type>2101</Type>\n  <Command>1</Command>\n  <Time>2023-01-01 00:00:00</Time>\n  <Items>\n    <ErrorCode>1</ErrorCode>\n  </Items>\n</PatrolDevice>",
+    );
+    assert_eq!(
+        ack.message,
+        Response::Relocalize(RelocalizeAck {
+            result: LocalizationResult::Abnormal
+        })
+    );
+    assert_response_round_trip(&ack);
+}
+
+#[test]
+fn motor_temperatures_1008_response() {
+    let names = [
+        "LeftFrontSway",
+        "LeftFrontHip",
+        "LeftFrontKnee",
+        "RightFrontSway",
+        "RightFrontHip",
+        "RightFrontKnee",
+        "LeftBackSway",
+        "LeftBackHip",
+        "LeftBackKnee",
+        "RightBackSway",
+        "RightBackHip",
+        "RightBackKnee",
+    ];
+    // The document's sample is all 0; give each motor its own value to catch swapped fields.
+    let items: String = names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| format!("<{n}>{}.5</{n}>", 30 + i))
+        .collect();
+    let decoded = response(&format!(
+        "<?xml version='1.0' encoding='utf-8'?><PatrolDevice><Type>1008</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items>{items}</Items></PatrolDevice>"
+    ));
+    let Response::MotorTemperatures(t) = decoded.message else {
+        panic!()
+    };
+    let expected: Vec<f32> = (0..12).map(|i| 30.5 + i as f32).collect();
+    assert_eq!(t.all().to_vec(), expected);
+    assert_eq!(t.left_front_sway, 30.5);
+    assert_eq!(t.right_back_knee, 41.5);
+    assert_eq!(t.max(), 41.5);
+    assert_response_round_trip(&decoded);
+}
+
+#[test]
+fn request_error_type_0() {
+    let decoded = response(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<PatrolDevice>
+    <Type>0</Type>
+    <Command>0</Command>
+    <Time>0000-00-00 00:00:00</Time>
+    <Items>
+        <ErrorCode>4</ErrorCode>
+    </Items>
+</PatrolDevice>"#,
+    );
+    assert_eq!(decoded.time, Timestamp::ZERO);
+    assert_eq!(
+        decoded.message,
+        Response::RequestError(RequestError {
+            code: RequestErrorCode::ParseFailed
+        })
+    );
+    assert_eq!(decoded.message.command(), 0);
+    assert_response_round_trip(&decoded);
+    for (raw, code) in [
+        (1, RequestErrorCode::HeaderMissing),
+        (2, RequestErrorCode::HeaderWrong),
+        (3, RequestErrorCode::LengthAbnormal),
+    ] {
+        let xml = format!(
+            "<PatrolDevice><Type>0</Type><Command>0</Command><Time>0000-00-00 00:00:00</Time><Items><ErrorCode>{raw}</ErrorCode></Items></PatrolDevice>"
+        );
+        assert_eq!(
+            response(&xml).message,
+            Response::RequestError(RequestError { code })
+        );
+    }
+}
+
+/// A code from a newer robot is kept, never fails the whole message.
+#[test]
+fn unknown_codes_are_kept() {
+    let xml = "<PatrolDevice><Type>1003</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><Value>1</Value><ErrorCode>7</ErrorCode><ErrorStatus>49999</ErrorStatus></Items></PatrolDevice>";
+    let decoded = response(xml);
+    assert_eq!(
+        decoded.message,
+        Response::NavResult(NavResult {
+            value: 1,
+            outcome: NavOutcome::Unknown(7),
+            status: ErrorStatus::Unknown(49999)
+        })
+    );
+    assert_response_round_trip(&decoded);
+}
+
+#[test]
+fn unknown_type_is_reported_with_its_number() {
+    let xml = "<PatrolDevice><Type>2102</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items/></PatrolDevice>";
+    assert_eq!(
+        Response::decode(xml.as_bytes()),
+        Err(DecodeError::UnknownType(2102))
+    );
+    assert_eq!(
+        Request::decode(xml.as_bytes()),
+        Err(DecodeError::UnknownType(2102))
+    );
+    // Type 0 is sent only by the robot; as a request it is unknown.
+    let xml = xml.replace("2102", "0");
+    assert_eq!(
+        Request::decode(xml.as_bytes()),
+        Err(DecodeError::UnknownType(0))
+    );
+}
+
+#[test]
+fn bad_numbers_are_named() {
+    use x30_panel::proto::xml::number::NumberError;
+    let base = "<PatrolDevice><Type>2002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><ObsState>X</ObsState></Items></PatrolDevice>";
+    for (text, error) in [
+        ("abc", NumberError::Invalid),
+        ("", NumberError::Empty),
+        ("99999999999", NumberError::OutOfRange),
+        ("1.5", NumberError::Invalid),
+    ] {
+        assert_eq!(
+            Response::decode(base.replace(">X<", &format!(">{text}<")).as_bytes()),
+            Err(DecodeError::BadItem {
+                item: "ObsState",
+                error
+            }),
+            "{text}"
+        );
+    }
+    let float = "<PatrolDevice><Type>2</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><Value>1e39</Value></Items></PatrolDevice>";
+    assert_eq!(
+        Request::decode(float.as_bytes()),
+        Err(DecodeError::BadItem {
+            item: "Value",
+            error: NumberError::OutOfRange
+        })
+    );
+}
+
+#[test]
+fn items_block_count_is_checked() {
+    let none = "<PatrolDevice><Type>2002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time></PatrolDevice>";
+    assert_eq!(
+        Response::decode(none.as_bytes()),
+        Err(DecodeError::ItemsBlocks { found: 0 })
+    );
+    let two = "<PatrolDevice><Type>2002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><ObsState>0</ObsState></Items><Items><ObsState>1</ObsState></Items></PatrolDevice>";
+    assert_eq!(
+        Response::decode(two.as_bytes()),
+        Err(DecodeError::ItemsBlocks { found: 2 })
+    );
+}
+
+#[test]
+fn encoding_into_a_small_buffer_fails_rather_than_truncates() {
+    use x30_panel::proto::xml::writer::WriteError;
+    let mut full = [0u8; 1024];
+    let n = Request::Status.encode(&T0, &mut full).unwrap();
+    for len in 0..n {
+        let mut buf = vec![0u8; len];
+        assert_eq!(
+            Request::Status.encode(&T0, &mut buf),
+            Err(WriteError::BufferFull),
+            "buffer of {len}"
+        );
+    }
+    let mut exact = vec![0u8; n];
+    assert_eq!(Request::Status.encode(&T0, &mut exact), Ok(n));
+}
+
+#[test]
+fn non_finite_floats_are_refused_by_name() {
+    use x30_panel::proto::xml::writer::WriteError;
+    let pose = Relocalize {
+        pos_x: 0.0,
+        pos_y: f32::NAN,
+        pos_z: 0.0,
+        yaw: 0.0,
+    };
+    let mut buf = [0u8; 1024];
+    assert_eq!(
+        Request::Relocalize(pose).encode(&T0, &mut buf),
+        Err(WriteError::NotFinite { item: "PosY" })
+    );
+    assert_eq!(
+        Request::Relocalize(pose).validate(),
+        Err(ValidationError::NotFinite { item: "PosY" })
+    );
+}

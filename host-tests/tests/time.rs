@@ -1,0 +1,116 @@
+//! The `Time` element.
+
+use x30_panel::proto::time::{TIME_TEXT_LEN, Timestamp};
+
+#[test]
+fn encodes_and_decodes() {
+    let t = Timestamp {
+        year: 2024,
+        month: 11,
+        day: 19,
+        hour: 8,
+        minute: 5,
+        second: 9,
+    };
+    let mut text = [0u8; TIME_TEXT_LEN];
+    t.encode(&mut text);
+    assert_eq!(&text, b"2024-11-19 08:05:09");
+    assert_eq!(Timestamp::decode(&text), Ok(t));
+    assert_eq!(
+        Timestamp::decode(b"0000-00-00 00:00:00"),
+        Ok(Timestamp::ZERO)
+    );
+}
+
+#[test]
+fn rejects_other_shapes() {
+    for bad in [
+        &b"2024-11-19T08:05:09"[..],
+        b"2024-11-19 08:05",
+        b"2024/11/19 08:05:09",
+        b"20x4-11-19 08:05:09",
+        b"",
+        b"2024-11-19 08:05:09 ",
+    ] {
+        assert!(
+            Timestamp::decode(bad).is_err(),
+            "{}",
+            String::from_utf8_lossy(bad)
+        );
+    }
+}
+
+#[test]
+fn counts_on_across_days_months_and_leap_years() {
+    let t = Timestamp {
+        year: 2023,
+        month: 12,
+        day: 31,
+        hour: 23,
+        minute: 59,
+        second: 58,
+    };
+    assert_eq!(
+        t.plus_seconds(3),
+        Timestamp {
+            year: 2024,
+            month: 1,
+            day: 1,
+            hour: 0,
+            minute: 0,
+            second: 1
+        }
+    );
+    let feb = Timestamp {
+        year: 2024,
+        month: 2,
+        day: 28,
+        hour: 12,
+        minute: 0,
+        second: 0,
+    };
+    assert_eq!(feb.plus_seconds(86_400), Timestamp { day: 29, ..feb });
+    assert_eq!(
+        feb.plus_seconds(2 * 86_400),
+        Timestamp {
+            month: 3,
+            day: 1,
+            ..feb
+        }
+    );
+    let feb_2023 = Timestamp { year: 2023, ..feb };
+    assert_eq!(
+        feb_2023.plus_seconds(86_400),
+        Timestamp {
+            month: 3,
+            day: 1,
+            ..feb_2023
+        }
+    );
+    assert_eq!(t.plus_seconds(0), t);
+    // 400 days from the document's epoch.
+    let later = Timestamp::DOCUMENT_EPOCH.plus_seconds(400 * 86_400 + 3_661);
+    assert_eq!(
+        later,
+        Timestamp {
+            year: 2024,
+            month: 2,
+            day: 5,
+            hour: 1,
+            minute: 1,
+            second: 1
+        }
+    );
+}
+
+#[test]
+fn zero_time_counts_from_the_document_epoch() {
+    assert_eq!(
+        Timestamp::ZERO.plus_seconds(61),
+        Timestamp {
+            minute: 1,
+            second: 1,
+            ..Timestamp::DOCUMENT_EPOCH
+        }
+    );
+}

@@ -1,0 +1,278 @@
+//! What the XML reader tolerates (SPEC §3, §5) and what it rejects, each with a typed error.
+
+use x30_panel::proto::message::{DecodeError, Request, Response};
+use x30_panel::proto::xml::reader::{MAX_DEPTH, Token, Tokenizer, XmlErrorKind};
+use x30_panel::proto::xml::writer::{WriteError, XmlWriter};
+use x30_panel::proto::xml::{StructureError, read_document};
+
+const BODY: &str = "<PatrolDevice><Type>2002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><ObsState>1</ObsState></Items></PatrolDevice>";
+
+fn obstacle(xml: &str) -> Result<Response, DecodeError> {
+    Response::decode(xml.as_bytes()).map(|d| d.message)
+}
+
+fn assert_obstacle(xml: &str) {
+    use x30_panel::proto::codes::ObsState;
+    use x30_panel::proto::message::Perception;
+    assert_eq!(
+        obstacle(xml),
+        Ok(Response::Perception(Perception {
+            obs_state: ObsState::ObstacleAhead
+        })),
+        "{xml}"
+    );
+}
+
+fn xml_error(xml: &str) -> XmlErrorKind {
+    match obstacle(xml) {
+        Err(DecodeError::Structure(StructureError::Xml(e))) => e.kind,
+        other => panic!("expected an XML error for {xml}, got {other:?}"),
+    }
+}
+
+#[test]
+fn declaration_styles_and_none() {
+    for decl in [
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>",
+        "<?xml version=\"1.0\" encoding=\"UTF-8\" ?>",
+        "<?xml version='1.0' encoding='utf-8'?>",
+        "",
+        "\u{feff}<?xml version=\"1.0\"?>",
+    ] {
+        assert_obstacle(&format!("{decl}\n{BODY}"));
+    }
+}
+
+#[test]
+fn any_whitespace_and_comments() {
+    assert_obstacle(&BODY.replace("><", ">\n\t\t<"));
+    assert_obstacle(&BODY.replace("><", ">\r\n  <"));
+    assert_obstacle(&format!(
+        "<!-- before -->{}<!-- after -->\n",
+        BODY.replace("<Items>", "<Items><!-- inside <Items> -->")
+    ));
+    assert_obstacle(&BODY.replace("<ObsState>1</ObsState>", "<ObsState>\n   1\t</ObsState>"));
+    assert_obstacle(&BODY.replace("<ObsState>1</ObsState>", "<ObsState><!-- c -->1</ObsState>"));
+    assert_obstacle(&BODY.replace("</ObsState>", "</ObsState >"));
+}
+
+#[test]
+fn elements_in_any_order_and_unknown_ones_skipped() {
+    let reordered = "<PatrolDevice><Items><Extra><Deep>1</Deep></Extra><ObsState>1</ObsState><Unknown/></Items><Time>2023-01-01 00:00:00</Time><Vendor a='1'>x</Vendor><Command>1</Command><Type>2002</Type></PatrolDevice>";
+    assert_obstacle(reordered);
+    let mut seen = Vec::new();
+    let (envelope, blocks) = read_document(reordered.as_bytes(), |envelope, items| {
+        seen.push((envelope.message_type, items.count()));
+        Ok::<_, StructureError>(())
+    })
+    .unwrap();
+    assert_eq!(
+        (envelope.message_type, envelope.command, blocks),
+        (2002, 1, 1)
+    );
+    // The block came before Type, so it was read once Type was known: three items.
+    assert_eq!(seen, vec![(2002, 3)]);
+}
+
+#[test]
+fn self_closing_items_and_attributes() {
+    let xml = "<PatrolDevice version=\"2\"><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items /></PatrolDevice>";
+    assert_eq!(
+        Request::decode(xml.as_bytes()).unwrap().message,
+        Request::Status
+    );
+}
+
+#[test]
+fn rejects_dtd_and_entity_declarations() {
+    let dtd = format!("<?xml version=\"1.0\"?><!DOCTYPE PatrolDevice [<!ENTITY x \"1\">]>{BODY}");
+    assert_eq!(xml_error(&dtd), XmlErrorKind::Dtd);
+    assert_eq!(
+        xml_error(&format!("<!ENTITY x \"1\">{BODY}")),
+        XmlErrorKind::Dtd
+    );
+    assert_eq!(
+        xml_error(&BODY.replace(">1</ObsState>", ">&x;</ObsState>")),
+        XmlErrorKind::UnknownEntity
+    );
+    assert_eq!(
+        xml_error(&BODY.replace(">1</ObsState>", "><![CDATA[1]]></ObsState>")),
+        XmlErrorKind::Cdata
+    );
+}
+
+#[test]
+fn predefined_entities_are_well_formed_but_not_numbers() {
+    let amp = BODY.replace(">1</ObsState>", ">&amp;</ObsState>");
+    assert!(matches!(
+        obstacle(&amp),
+        Err(DecodeError::BadItem {
+            item: "ObsState",
+            ..
+        })
+    ));
+    let unknown_item = BODY.replace("<ObsState>", "<Note>a &lt; b &#65; &#x42;</Note><ObsState>");
+    assert_obstacle(&unknown_item);
+}
+
+#[test]
+fn rejects_mismatched_tags() {
+    assert_eq!(
+        xml_error(&BODY.replace("</ObsState>", "</ObsStat>")),
+        XmlErrorKind::MismatchedTag
+    );
+    assert_eq!(
+        xml_error(&BODY.replace("</Items>", "")),
+        XmlErrorKind::MismatchedTag
+    );
+    assert_eq!(
+        xml_error(&BODY.replace("</PatrolDevice>", "")),
+        XmlErrorKind::UnexpectedEnd
+    );
+}
+
+#[test]
+fn rejects_trailing_garbage() {
+    assert_eq!(
+        xml_error(&format!("{BODY}junk")),
+        XmlErrorKind::TrailingContent
+    );
+    assert_eq!(
+        xml_error(&format!("{BODY}<PatrolDevice/>")),
+        XmlErrorKind::TrailingContent
+    );
+    assert_eq!(
+        xml_error(&format!("junk{BODY}")),
+        XmlErrorKind::TextOutsideRoot
+    );
+    // Whitespace and comments after the root are fine.
+    assert_obstacle(&format!("{BODY}\n\n<!-- end -->\n"));
+}
+
+#[test]
+fn rejects_nesting_deeper_than_the_protocol_needs() {
+    let deep = BODY.replace(
+        "<ObsState>1</ObsState>",
+        "<ObsState>1</ObsState><A><B><C>1</C></B></A>",
+    );
+    assert_eq!(xml_error(&deep), XmlErrorKind::TooDeep);
+    let ok = BODY.replace(
+        "<ObsState>1</ObsState>",
+        "<ObsState>1</ObsState><A><B>1</B></A>",
+    );
+    assert_obstacle(&ok);
+    assert_eq!(MAX_DEPTH, 4);
+}
+
+#[test]
+fn rejects_malformed_markup() {
+    for (bad, kind) in [
+        ("<PatrolDevice", XmlErrorKind::UnexpectedEnd),
+        (
+            "<PatrolDevice><Type>1002</Type",
+            XmlErrorKind::UnexpectedEnd,
+        ),
+        ("<PatrolDevice><!-- open", XmlErrorKind::UnexpectedEnd),
+        (
+            "<PatrolDevice a=1></PatrolDevice>",
+            XmlErrorKind::MalformedTag,
+        ),
+        (
+            "<PatrolDevice a=\"1\"b=\"2\"></PatrolDevice>",
+            XmlErrorKind::MalformedTag,
+        ),
+        (
+            "<PatrolDevice><></></PatrolDevice>",
+            XmlErrorKind::MalformedTag,
+        ),
+        (
+            "<PatrolDevice><!foo></PatrolDevice>",
+            XmlErrorKind::MalformedTag,
+        ),
+        ("", XmlErrorKind::NoRoot),
+        ("   <!-- only a comment -->", XmlErrorKind::NoRoot),
+    ] {
+        let got = match Response::decode(bad.as_bytes()) {
+            Err(DecodeError::Structure(StructureError::Xml(e))) => e.kind,
+            other => panic!("{bad}: {other:?}"),
+        };
+        assert_eq!(got, kind, "{bad}");
+    }
+}
+
+#[test]
+fn errors_carry_the_offset() {
+    let xml = "<PatrolDevice><Type>1</Typo></PatrolDevice>";
+    let Err(DecodeError::Structure(StructureError::Xml(e))) = Response::decode(xml.as_bytes())
+    else {
+        panic!()
+    };
+    assert_eq!(e.kind, XmlErrorKind::MismatchedTag);
+    assert_eq!(e.offset, xml.find("</Typo>").unwrap());
+}
+
+#[test]
+fn wrong_root_and_missing_header_elements() {
+    assert_eq!(
+        obstacle("<Robot><Type>2002</Type></Robot>"),
+        Err(DecodeError::Structure(StructureError::NotPatrolDevice))
+    );
+    assert_eq!(
+        obstacle("<PatrolDevice><Command>1</Command><Items/></PatrolDevice>"),
+        Err(DecodeError::Structure(StructureError::MissingElement(
+            "Type"
+        )))
+    );
+    assert_eq!(
+        obstacle("<PatrolDevice><Type>2002</Type><Items/></PatrolDevice>"),
+        Err(DecodeError::Structure(StructureError::MissingElement(
+            "Command"
+        )))
+    );
+    assert!(matches!(
+        obstacle(&BODY.replace("<Type>2002</Type>", "<Type>x</Type>")),
+        Err(DecodeError::Structure(StructureError::BadNumber("Type", _)))
+    ));
+    assert_eq!(
+        obstacle(&BODY.replace("2023-01-01 00:00:00", "yesterday")),
+        Err(DecodeError::Structure(StructureError::BadTime))
+    );
+    assert_eq!(
+        obstacle(&BODY.replace("<ObsState>1</ObsState>", "<ObsState><X>1</X></ObsState>")),
+        Err(DecodeError::ItemNotText("ObsState"))
+    );
+}
+
+#[test]
+fn tokenizer_yields_the_structure() {
+    let mut t = Tokenizer::document(b"<?xml version='1.0'?><a><b x='1'>t</b><c/></a>");
+    let mut tokens = Vec::new();
+    while let Some(tok) = t.next_token().unwrap() {
+        tokens.push(tok);
+    }
+    assert_eq!(
+        tokens,
+        vec![
+            Token::Start(b"a"),
+            Token::Start(b"b"),
+            Token::Text(b"t"),
+            Token::End(b"b"),
+            Token::Empty(b"c"),
+            Token::End(b"a"),
+        ]
+    );
+}
+
+#[test]
+fn writer_escapes_text_and_never_truncates() {
+    let mut buf = [0u8; 64];
+    let mut w = XmlWriter::new(&mut buf);
+    w.text("a<b & 'c' > \"d\"").unwrap();
+    let n = w.len();
+    assert_eq!(&buf[..n], b"a&lt;b &amp; &apos;c&apos; &gt; &quot;d&quot;");
+    let mut small = [0u8; 5];
+    let mut w = XmlWriter::new(&mut small);
+    assert_eq!(w.text("a&b"), Err(WriteError::BufferFull));
+    let mut w = XmlWriter::new(&mut small);
+    assert_eq!(w.int_element("Value", 1), Err(WriteError::BufferFull));
+}

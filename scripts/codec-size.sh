@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Flash and static RAM the protocol codec takes on thumbv7em-none-eabihf (release, opt-level
+# "s", LTO): the size of a bare binary that encodes and decodes every message, minus the
+# same binary without the codec.
+set -euo pipefail
+cd "$(dirname "$0")/../tools/codec-size"
+export RUSTFLAGS="-C link-arg=-e_start -C link-arg=--gc-sections"
+target=thumbv7em-none-eabihf
+size_of() {
+    cargo build --release --quiet --target "$target" --target-dir target/$1 $2
+    local elf="target/$1/$target/release/x30-codec-size"
+    # text+rodata are flash; data is flash and RAM; bss is RAM.
+    llvm-size -A "$elf" 2>/dev/null || size -A "$elf"
+}
+sum() { awk -v want="$1" '$1 ~ want { s += $2 } END { print s + 0 }'; }
+base=$(size_of base "")
+codec=$(size_of codec "--features codec")
+flash() { echo "$1" | sum '^\.(text|rodata|data)$'; }
+ram() { echo "$1" | sum '^\.(data|bss)$'; }
+f=$(( $(flash "$codec") - $(flash "$base") ))
+r=$(( $(ram "$codec") - $(ram "$base") ))
+echo "codec flash: $f bytes ($(( (f + 1023) / 1024 )) KiB), static RAM: $r bytes"

@@ -1,0 +1,62 @@
+//! ST NUCLEO-F767ZI: STM32F767ZI at 216 MHz, on-board LAN8742A Ethernet PHY, three user LEDs.
+
+use embassy_stm32::Config;
+use embassy_stm32::gpio::{Level, Output, Speed};
+use embassy_stm32::rcc::{
+    AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv, PllSource,
+    Sysclk, mux,
+};
+use embassy_stm32::time::Hertz;
+
+/// The peripherals the application uses, configured and ready.
+pub struct Board {
+    /// Green user LED LD1 (PB0): state of the link to the robot.
+    pub link: Output<'static>,
+    /// Blue user LED LD2 (PB7): commands sent, navigation task running.
+    pub activity: Output<'static>,
+    /// Red user LED LD3 (PB14): robot or panel fault.
+    pub fault: Output<'static>,
+}
+
+/// Configures clocks and pins; call once, first thing in `main`.
+pub fn init() -> Board {
+    let p = embassy_stm32::init(clock_config());
+
+    // The LEDs are active high; all start off so that a lit LED always means something.
+    Board {
+        link: Output::new(p.PB0, Level::Low, Speed::Low),
+        activity: Output::new(p.PB7, Level::Low, Speed::Low),
+        fault: Output::new(p.PB14, Level::Low, Speed::Low),
+    }
+}
+
+/// Clock tree: 216 MHz system clock (the F767's maximum) from the ST-LINK's 8 MHz MCO.
+fn clock_config() -> Config {
+    let mut config = Config::default();
+    let rcc = &mut config.rcc;
+    // The Nucleo has no HSE crystal fitted (X3); the ST-LINK drives 8 MHz into OSC_IN, so the
+    // oscillator must be bypassed.
+    rcc.hse = Some(Hse {
+        freq: Hertz(8_000_000),
+        mode: HseMode::Bypass,
+    });
+    rcc.pll_src = PllSource::HSE;
+    rcc.pll = Some(Pll {
+        // 2 MHz PLL input is what RM0410 recommends to limit PLL jitter.
+        prediv: PllPreDiv::DIV4,
+        // VCO 432 MHz.
+        mul: PllMul::MUL216,
+        // 432 / 2 = 216 MHz system clock.
+        divp: Some(PllPDiv::DIV2),
+        // 432 / 9 = 48 MHz for the RNG (network stack seed) and USB, which require exactly it.
+        divq: Some(PllQDiv::DIV9),
+        divr: None,
+    });
+    rcc.sys = Sysclk::PLL1_P;
+    rcc.ahb_pre = AHBPrescaler::DIV1;
+    // APB1 may run at most 54 MHz and APB2 at most 108 MHz.
+    rcc.apb1_pre = APBPrescaler::DIV4;
+    rcc.apb2_pre = APBPrescaler::DIV2;
+    rcc.mux.clk48sel = mux::Clk48sel::PLL1_Q;
+    config
+}

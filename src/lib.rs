@@ -1,0 +1,10 @@
+//! x30-panel: a button panel for the DEEP Robotics Jueying X30 inspection robot.
+//!
+//! This crate is the portable core of the panel firmware. [`proto`] is the pure codec of the
+//! robot's `robot_server` protocol (V1.0.12): frames, XML, and typed messages for every Type,
+//! with no I/O, no allocation and no panics.
+#![no_std]
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod proto;

@@ -1,0 +1,385 @@
+//! The binary frame (APDU) around every message: a 16-byte header, then the XML body (ASDU).
+//!
+//! ```text
+//! offset  size  field
+//!      0     4  sync       EB 90 EB 90
+//!      4     2  length     ASDU length in bytes, little-endian
+//!      6     2  message ID chosen by the requester, echoed in the answer, little-endian
+//!      8     8  reserved   all zero
+//! ```
+//!
+//! TCP is a byte stream, so a read may hold half a frame or several frames.
+//! [`FrameDecoder`] accepts arbitrary chunks into a fixed buffer, hands out whole frames,
+//! finds the sync sequence again after garbage, and skips frames too long for its buffer
+//! without losing the frame that follows.
+
+/// The four bytes that start every frame.
+pub const SYNC: [u8; 4] = [0xEB, 0x90, 0xEB, 0x90];
+/// Length of the frame header in bytes.
+pub const HEADER_LEN: usize = 16;
+/// Largest ASDU the 16-bit length field can describe.
+pub const MAX_ASDU_LEN: usize = u16::MAX as usize;
+
+/// A decoded frame header.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Header {
+    /// Length of the ASDU that follows, in bytes.
+    pub asdu_len: u16,
+    /// Message ID: the requester's choice, echoed unchanged in the answer.
+    pub message_id: u16,
+}
+
+/// Why a header was rejected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum HeaderError {
+    /// The first four bytes are not the sync sequence (the robot's ErrorCode 1, header missing).
+    BadSync,
+    /// The reserved bytes are not all zero (the robot's ErrorCode 2, header wrong).
+    BadReserved,
+}
+
+impl Header {
+    /// Encodes the header into its 16 wire bytes.
+    pub fn encode(&self) -> [u8; HEADER_LEN] {
+        let mut out = [0; HEADER_LEN];
+        let [s0, s1, s2, s3, l0, l1, m0, m1, ..] = &mut out;
+        [*s0, *s1, *s2, *s3] = SYNC;
+        [*l0, *l1] = self.asdu_len.to_le_bytes();
+        [*m0, *m1] = self.message_id.to_le_bytes();
+        out
+    }
+
+    /// Decodes 16 header bytes, checking the sync sequence and the reserved bytes.
+    pub fn decode(bytes: &[u8; HEADER_LEN]) -> Result<Self, HeaderError> {
+        let [s0, s1, s2, s3, l0, l1, m0, m1, reserved @ ..] = *bytes;
+        if [s0, s1, s2, s3] != SYNC {
+            return Err(HeaderError::BadSync);
+        }
+        if reserved != [0; 8] {
+            return Err(HeaderError::BadReserved);
+        }
+        Ok(Self {
+            asdu_len: u16::from_le_bytes([l0, l1]),
+            message_id: u16::from_le_bytes([m0, m1]),
+        })
+    }
+}
+
+/// Source of message IDs for one requester: counts up from 0 and wraps 65535 → 0.
+#[derive(Debug, Clone, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MessageIds {
+    next: u16,
+}
+
+impl MessageIds {
+    /// A counter whose first ID is 0.
+    pub const fn new() -> Self {
+        Self { next: 0 }
+    }
+
+    /// Returns the next message ID.
+    pub fn next_id(&mut self) -> u16 {
+        let id = self.next;
+        self.next = self.next.wrapping_add(1);
+        id
+    }
+}
+
+/// Why a frame could not be encoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum EncodeError {
+    /// The output buffer cannot hold the header and body.
+    BufferTooSmall,
+    /// The body is longer than the 16-bit length field allows.
+    AsduTooLong,
+}
+
+/// Writes a whole frame: `write_asdu` fills the body after the header, returning its length.
+///
+/// Writing the body in place avoids a second buffer and a copy; the header is filled in
+/// once the body's length is known. Returns the frame's total length.
+pub fn encode_with<E>(
+    out: &mut [u8],
+    message_id: u16,
+    write_asdu: impl FnOnce(&mut [u8]) -> Result<usize, E>,
+) -> Result<usize, E>
+where
+    E: From<EncodeError>,
+{
+    let (header, body) = out
+        .split_first_chunk_mut::<HEADER_LEN>()
+        .ok_or(EncodeError::BufferTooSmall)?;
+    let asdu_len = write_asdu(body)?;
+    let asdu_len = u16::try_from(asdu_len).map_err(|_| EncodeError::AsduTooLong)?;
+    *header = Header {
+        asdu_len,
+        message_id,
+    }
+    .encode();
+    Ok(HEADER_LEN + usize::from(asdu_len))
+}
+
+/// Writes a whole frame around an already encoded body; returns the frame's total length.
+pub fn encode(out: &mut [u8], message_id: u16, asdu: &[u8]) -> Result<usize, EncodeError> {
+    encode_with(out, message_id, |body| {
+        body.get_mut(..asdu.len())
+            .ok_or(EncodeError::BufferTooSmall)?
+            .copy_from_slice(asdu);
+        Ok(asdu.len())
+    })
+}
+
+/// One complete frame handed out by [`FrameDecoder`], borrowing its buffer.
+#[derive(Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Frame<'a> {
+    /// The frame's message ID.
+    pub message_id: u16,
+    /// The XML body.
+    pub asdu: &'a [u8],
+}
+
+/// Something in the byte stream that is not a usable frame.
+///
+/// None of these ends the stream: after reporting one, the decoder carries on with the
+/// bytes that follow, so the connection stays usable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum FrameError {
+    /// Bytes without a sync sequence were discarded (the robot's ErrorCode 1).
+    Garbage {
+        /// How many bytes were discarded.
+        skipped: usize,
+    },
+    /// A header had non-zero reserved bytes; the decoder searches for the next sync
+    /// sequence after its first byte (the robot's ErrorCode 2).
+    BadReserved {
+        /// The message ID the bad header carried.
+        message_id: u16,
+    },
+    /// A frame longer than the decoder's buffer; its bytes are skipped as they arrive
+    /// (the robot's ErrorCode 3).
+    TooLong {
+        /// The message ID of the skipped frame.
+        message_id: u16,
+        /// Its declared ASDU length.
+        asdu_len: u16,
+    },
+}
+
+/// A streaming frame decoder over a fixed buffer of `N` bytes.
+///
+/// Frames whose header and body fit in `N` bytes are handed out whole. Feed it bytes with
+/// [`FrameDecoder::feed`] (or read straight into [`FrameDecoder::spare`] and call
+/// [`FrameDecoder::commit`]), then call [`FrameDecoder::decode`] until it returns `None`.
+#[derive(Debug)]
+pub struct FrameDecoder<const N: usize> {
+    buf: [u8; N],
+    /// First byte not yet examined.
+    start: usize,
+    /// One past the last byte received.
+    end: usize,
+    /// Bytes of an oversized frame still to be thrown away as they arrive.
+    skip: usize,
+    /// Garbage counted before a sync sequence was found, reported once per run.
+    garbage: usize,
+}
+
+impl<const N: usize> Default for FrameDecoder<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> FrameDecoder<N> {
+    /// Largest ASDU this decoder hands out; longer frames are skipped.
+    pub const MAX_ASDU: usize = N.saturating_sub(HEADER_LEN);
+
+    /// An empty decoder.
+    pub const fn new() -> Self {
+        // Telling overlapping sync sequences apart needs a header plus two bytes.
+        const {
+            assert!(
+                N >= HEADER_LEN + 2,
+                "a FrameDecoder needs at least 18 bytes"
+            )
+        };
+        Self {
+            buf: [0; N],
+            start: 0,
+            end: 0,
+            skip: 0,
+            garbage: 0,
+        }
+    }
+
+    /// Forgets every byte received, for example after the connection was re-opened.
+    pub fn clear(&mut self) {
+        *self = Self {
+            buf: self.buf,
+            ..Self::new()
+        };
+    }
+
+    /// Free space to read into, after moving unread bytes to the front of the buffer.
+    ///
+    /// Never empty while a frame is incomplete, because a frame that would not fit is
+    /// skipped instead of buffered.
+    pub fn spare(&mut self) -> &mut [u8] {
+        if self.start > 0 {
+            self.buf.copy_within(self.start..self.end, 0);
+            self.end -= self.start;
+            self.start = 0;
+        }
+        self.buf.get_mut(self.end..).unwrap_or_default()
+    }
+
+    /// Marks `n` bytes written into [`FrameDecoder::spare`] as received.
+    pub fn commit(&mut self, n: usize) {
+        self.end = self.end.saturating_add(n).min(N);
+    }
+
+    /// Copies as much of `data` as fits; returns how many bytes were taken.
+    ///
+    /// Call [`FrameDecoder::decode`] until it returns `None` before feeding the rest.
+    pub fn feed(&mut self, data: &[u8]) -> usize {
+        let spare = self.spare();
+        let n = spare.len().min(data.len());
+        if let (Some(dst), Some(src)) = (spare.get_mut(..n), data.get(..n)) {
+            dst.copy_from_slice(src);
+        }
+        self.commit(n);
+        n
+    }
+
+    /// The next frame or stream error, or `None` when more bytes are needed.
+    pub fn decode(&mut self) -> Option<Result<Frame<'_>, FrameError>> {
+        loop {
+            self.discard_skipped();
+            if self.skip > 0 {
+                return None;
+            }
+            let pending = self.buf.get(self.start..self.end).unwrap_or_default();
+            let Some(at) = find_sync(pending) else {
+                // Keep a tail that could be the start of a sync sequence split across reads.
+                let keep = sync_prefix_len(pending);
+                let dropped = pending.len() - keep;
+                self.start += dropped;
+                self.garbage += dropped;
+                return None;
+            };
+            let skip = match overlapping_sync(pending.get(at..).unwrap_or_default()) {
+                Overlap::No => at,
+                Overlap::Later => at + 2,
+                Overlap::Undecided => {
+                    self.start += at;
+                    self.garbage += at;
+                    return None;
+                }
+            };
+            if skip > 0 {
+                self.start += skip;
+                self.garbage += skip;
+            }
+            if skip > at {
+                continue;
+            }
+            if self.garbage > 0 {
+                let skipped = core::mem::take(&mut self.garbage);
+                return Some(Err(FrameError::Garbage { skipped }));
+            }
+            let header = self
+                .buf
+                .get(self.start..self.end)
+                .and_then(|b| b.first_chunk::<HEADER_LEN>())?;
+            let header = match Header::decode(header) {
+                Ok(header) => header,
+                Err(HeaderError::BadReserved) => {
+                    let message_id = u16::from_le_bytes([header[6], header[7]]);
+                    // Drop one byte only: a real sync sequence may start inside this header.
+                    self.start += 1;
+                    return Some(Err(FrameError::BadReserved { message_id }));
+                }
+                // find_sync put a sync sequence at `start`; keep looking if that ever changes.
+                Err(HeaderError::BadSync) => {
+                    self.start += 1;
+                    continue;
+                }
+            };
+            let asdu_len = usize::from(header.asdu_len);
+            if asdu_len > Self::MAX_ASDU {
+                self.start += HEADER_LEN;
+                self.skip = asdu_len;
+                return Some(Err(FrameError::TooLong {
+                    message_id: header.message_id,
+                    asdu_len: header.asdu_len,
+                }));
+            }
+            let body = self.start + HEADER_LEN;
+            if self.end < body + asdu_len {
+                return None;
+            }
+            let asdu = self.buf.get(body..body + asdu_len)?;
+            self.start = body + asdu_len;
+            return Some(Ok(Frame {
+                message_id: header.message_id,
+                asdu,
+            }));
+        }
+    }
+
+    /// Drops received bytes that belong to an oversized frame being skipped.
+    fn discard_skipped(&mut self) {
+        let n = self.skip.min(self.end.saturating_sub(self.start));
+        self.start += n;
+        self.skip -= n;
+    }
+}
+
+/// Whether a sync sequence at the start of `bytes` hides another two bytes later.
+enum Overlap {
+    /// Only one candidate header.
+    No,
+    /// The header two bytes later is the real one.
+    Later,
+    /// More bytes are needed to tell.
+    Undecided,
+}
+
+/// `EB 90 EB 90 EB 90` is either a frame whose length field is `EB 90` (37099 bytes), or
+/// garbage ending in half a sync sequence followed by a real frame two bytes later. The
+/// later header is the real one when its reserved bytes are zero: in a genuine 37099-byte
+/// frame those positions hold the start of the XML body, never zeros.
+fn overlapping_sync(bytes: &[u8]) -> Overlap {
+    if bytes.get(SYNC.len()..SYNC.len() + 2) != SYNC.get(..2) {
+        return Overlap::No;
+    }
+    match bytes
+        .get(2..2 + HEADER_LEN)
+        .and_then(|b| b.first_chunk::<HEADER_LEN>())
+    {
+        None => Overlap::Undecided,
+        Some(later) if Header::decode(later).is_ok() => Overlap::Later,
+        Some(_) => Overlap::No,
+    }
+}
+
+/// Position of the first complete sync sequence in `bytes`.
+fn find_sync(bytes: &[u8]) -> Option<usize> {
+    bytes.windows(SYNC.len()).position(|w| w == SYNC)
+}
+
+/// Length of the longest suffix of `bytes` that is a proper prefix of the sync sequence.
+fn sync_prefix_len(bytes: &[u8]) -> usize {
+    (1..SYNC.len())
+        .rev()
+        .find(|&n| bytes.ends_with(SYNC.get(..n).unwrap_or_default()))
+        .unwrap_or(0)
+}

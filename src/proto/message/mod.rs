@@ -1,0 +1,414 @@
+//! Typed requests and responses for every Type, in both directions.
+//!
+//! The panel encodes [`Request`]s and decodes [`Response`]s; the simulator does the
+//! opposite with the same code. Each body is written in the document's layout and read
+//! with the tolerance SPEC §5 asks for: elements in any order, unknown items skipped,
+//! `MapId` for `MapID`, several `<Items>` blocks in a 1003 request.
+
+pub(crate) mod items;
+mod motion;
+mod nav;
+mod status;
+
+pub use motion::{Light, MotionAck, MotionCommand, MotionValue, Relocalize, RelocalizeAck, Speed};
+pub use nav::{CommandAck, MAX_NAV_POINTS, NavPoint, NavResult, NavTask, NavTaskState};
+pub use status::{Battery, MapImage, MotorTemperatures, Perception, RobotStatus};
+
+use crate::proto::codes::{MessageType, MotionCommandCode, RequestErrorCode};
+use crate::proto::time::Timestamp;
+use crate::proto::xml::number::NumberError;
+use crate::proto::xml::reader::XmlError;
+use crate::proto::xml::writer::{DocumentWriter, WriteError};
+use crate::proto::xml::{Envelope, Items, StructureError, read_document};
+use items::{ItemSet, item_set, parse_item};
+
+/// Longest body a valid request encodes to: a 1003 request with [`MAX_NAV_POINTS`]
+/// waypoints whose every number has its longest text. A receiver that accepts bodies this
+/// long never drops a valid request.
+pub const MAX_REQUEST_LEN: usize = 4608;
+
+/// The `Command` of every message other than Type 2 and Type 0.
+const DEFAULT_COMMAND: i32 = 1;
+
+/// Why a body could not be decoded into a message. The frame was consumed whole, so the
+/// connection stays usable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum DecodeError {
+    /// The document's structure or XML is not acceptable.
+    Structure(StructureError),
+    /// A `Type` this protocol version does not define.
+    UnknownType(i32),
+    /// A Type 2 `Command` this build does not know.
+    UnknownCommand(i32),
+    /// A required item is missing.
+    MissingItem(&'static str),
+    /// An item holds child elements where a value was expected.
+    ItemNotText(&'static str),
+    /// An item's value does not parse or does not fit.
+    BadItem {
+        /// The item's element name.
+        item: &'static str,
+        /// What was wrong with its text.
+        error: NumberError,
+    },
+    /// A message that carries items has no `<Items>` block, or a message that takes
+    /// one block has several.
+    ItemsBlocks {
+        /// How many blocks the message carried.
+        found: usize,
+    },
+}
+
+impl From<StructureError> for DecodeError {
+    fn from(e: StructureError) -> Self {
+        Self::Structure(e)
+    }
+}
+
+impl From<XmlError> for DecodeError {
+    fn from(e: XmlError) -> Self {
+        Self::Structure(StructureError::Xml(e))
+    }
+}
+
+/// Why a request breaks the document's rules; checked before sending.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum ValidationError {
+    /// A speed outside −1 or 0..=max for its command.
+    SpeedOutOfRange {
+        /// The command's largest speed.
+        max: f32,
+    },
+    /// Light brightness above 100 %.
+    BrightnessOutOfRange,
+    /// A coded item holds a code this protocol version does not define.
+    UnknownCode {
+        /// The item's element name.
+        item: &'static str,
+    },
+    /// A float item is NaN or infinite.
+    NotFinite {
+        /// The item's element name.
+        item: &'static str,
+    },
+    /// Accumulated-frame terrain allows only the accumulated-frame stair gaits (6, 7).
+    GaitNotAllowedOnTerrain,
+    /// Crouched posture allows only the walk (0) and slope (2) gaits.
+    GaitNotAllowedWhenCrouched,
+    /// A navigation task without points.
+    NoPoints,
+}
+
+item_set! {
+    /// Type 0 answer: the robot could not read a request.
+    pub struct RequestError {
+        /// What was wrong with the request.
+        pub code: RequestErrorCode = "ErrorCode";
+    }
+}
+
+/// A request, as the panel sends it and the robot receives it.
+// A navigation task holds its waypoints inline because there is no heap; requests are
+// built once per send, so the size is paid rarely.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Request {
+    /// 1002: real-time basic status.
+    Status,
+    /// 1003: navigation task; answered only when the task ends.
+    NavTask(NavTask),
+    /// 1004: cancel the navigation task.
+    CancelNav,
+    /// 1007: navigation task status.
+    NavStatus,
+    /// 1008: motor temperatures.
+    MotorTemperatures,
+    /// 1101: indicator light.
+    Light(Light),
+    /// 2: motion control.
+    Motion(MotionCommand),
+    /// 2001: battery.
+    Battery,
+    /// 2002: perception status.
+    Perception,
+    /// 2101: initialise localisation.
+    Relocalize(Relocalize),
+}
+
+/// A response, as the robot sends it and the panel receives it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Response {
+    /// 1002 answer.
+    Status(RobotStatus),
+    /// 1003 answer: the task has ended.
+    NavResult(NavResult),
+    /// 1004 answer.
+    CancelNav(CommandAck),
+    /// 1007 answer.
+    NavStatus(NavTaskState),
+    /// 1008 answer.
+    MotorTemperatures(MotorTemperatures),
+    /// 1101 answer.
+    Light(CommandAck),
+    /// 2 answer, with the command it answers.
+    Motion(MotionCommandCode, MotionAck),
+    /// 2001 answer.
+    Battery(Battery),
+    /// 2002 answer.
+    Perception(Perception),
+    /// 2101 answer.
+    Relocalize(RelocalizeAck),
+    /// 0: the robot could not read the request.
+    RequestError(RequestError),
+}
+
+/// A decoded message and the `Time` its sender wrote.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Decoded<T> {
+    /// The sender's local time.
+    pub time: Timestamp,
+    /// The message.
+    pub message: T,
+}
+
+impl Request {
+    /// The message Type.
+    pub fn message_type(&self) -> MessageType {
+        match self {
+            Self::Status => MessageType::Status,
+            Self::NavTask(_) => MessageType::NavTask,
+            Self::CancelNav => MessageType::CancelNav,
+            Self::NavStatus => MessageType::NavStatus,
+            Self::MotorTemperatures => MessageType::MotorTemperatures,
+            Self::Light(_) => MessageType::Light,
+            Self::Motion(_) => MessageType::Motion,
+            Self::Battery => MessageType::Battery,
+            Self::Perception => MessageType::Perception,
+            Self::Relocalize(_) => MessageType::Relocalize,
+        }
+    }
+
+    /// The `Command`: the motion command's code for Type 2, 1 otherwise.
+    pub fn command(&self) -> i32 {
+        match self {
+            Self::Motion(motion) => motion.code().raw(),
+            _ => DEFAULT_COMMAND,
+        }
+    }
+
+    /// Checks the request against the document's rules; call before sending.
+    pub fn validate(&self) -> Result<(), ValidationError> {
+        match self {
+            Self::NavTask(task) => task.validate(),
+            Self::Light(light) => light.validate(),
+            Self::Motion(motion) => motion.validate(),
+            Self::Relocalize(pose) => {
+                let values = [
+                    ("PosX", pose.pos_x),
+                    ("PosY", pose.pos_y),
+                    ("PosZ", pose.pos_z),
+                    ("Yaw", pose.yaw),
+                ];
+                match values.iter().find(|(_, v)| !v.is_finite()) {
+                    Some(&(item, _)) => Err(ValidationError::NotFinite { item }),
+                    None => Ok(()),
+                }
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Writes the XML body into `out`; returns its length.
+    pub fn encode(&self, time: &Timestamp, out: &mut [u8]) -> Result<usize, WriteError> {
+        let mut doc = DocumentWriter::begin(out, self.message_type().raw(), self.command(), time)?;
+        match self {
+            Self::NavTask(task) => {
+                for point in &task.points {
+                    point.write_items(&mut doc)?;
+                    doc.end_items_block()?;
+                }
+            }
+            Self::Light(light) => light.write_items(&mut doc)?,
+            Self::Motion(motion) => match motion.value() {
+                MotionValue::Float(v) => doc.float_item("Value", v)?,
+                MotionValue::Int(v) => doc.int_item("Value", v.into())?,
+            },
+            Self::Relocalize(pose) => pose.write_items(&mut doc)?,
+            Self::Status
+            | Self::CancelNav
+            | Self::NavStatus
+            | Self::MotorTemperatures
+            | Self::Battery
+            | Self::Perception => {}
+        }
+        doc.finish()
+    }
+
+    /// Reads a request body.
+    pub fn decode(asdu: &[u8]) -> Result<Decoded<Self>, DecodeError> {
+        let mut message = None;
+        let mut points = heapless::Vec::<NavPoint, MAX_NAV_POINTS>::new();
+        let (envelope, blocks) = read_document(asdu, |envelope, items| {
+            match MessageType::from_raw(envelope.message_type) {
+                // Each block is one waypoint; read_document allows no more blocks than fit.
+                MessageType::NavTask => points.push(NavPoint::read_items(items)?).map_err(|_| {
+                    DecodeError::ItemsBlocks {
+                        found: MAX_NAV_POINTS + 1,
+                    }
+                }),
+                MessageType::Light if message.is_none() => {
+                    message = Some(Self::Light(Light::read_items(items)?));
+                    Ok(())
+                }
+                MessageType::Relocalize if message.is_none() => {
+                    message = Some(Self::Relocalize(Relocalize::read_items(items)?));
+                    Ok(())
+                }
+                MessageType::Motion if message.is_none() => {
+                    message = Some(Self::Motion(read_motion(envelope.command, items)?));
+                    Ok(())
+                }
+                _ => Ok(()),
+            }
+        })?;
+        let message = match MessageType::from_raw(envelope.message_type) {
+            MessageType::Status => Self::Status,
+            MessageType::CancelNav => Self::CancelNav,
+            MessageType::NavStatus => Self::NavStatus,
+            MessageType::MotorTemperatures => Self::MotorTemperatures,
+            MessageType::Battery => Self::Battery,
+            MessageType::Perception => Self::Perception,
+            MessageType::NavTask if points.is_empty() => {
+                return Err(DecodeError::ItemsBlocks { found: 0 });
+            }
+            MessageType::NavTask => Self::NavTask(NavTask { points }),
+            MessageType::Light | MessageType::Relocalize | MessageType::Motion => {
+                match (message, blocks) {
+                    (Some(message), 1) => message,
+                    _ => return Err(DecodeError::ItemsBlocks { found: blocks }),
+                }
+            }
+            MessageType::RequestError | MessageType::Unknown(_) => {
+                return Err(DecodeError::UnknownType(envelope.message_type));
+            }
+        };
+        Ok(Decoded {
+            time: envelope.time,
+            message,
+        })
+    }
+}
+
+impl Response {
+    /// The message Type.
+    pub fn message_type(&self) -> MessageType {
+        match self {
+            Self::Status(_) => MessageType::Status,
+            Self::NavResult(_) => MessageType::NavTask,
+            Self::CancelNav(_) => MessageType::CancelNav,
+            Self::NavStatus(_) => MessageType::NavStatus,
+            Self::MotorTemperatures(_) => MessageType::MotorTemperatures,
+            Self::Light(_) => MessageType::Light,
+            Self::Motion(..) => MessageType::Motion,
+            Self::Battery(_) => MessageType::Battery,
+            Self::Perception(_) => MessageType::Perception,
+            Self::Relocalize(_) => MessageType::Relocalize,
+            Self::RequestError(_) => MessageType::RequestError,
+        }
+    }
+
+    /// The `Command`: echoed from the request; 0 for Type 0.
+    pub fn command(&self) -> i32 {
+        match self {
+            Self::Motion(code, _) => code.raw(),
+            Self::RequestError(_) => 0,
+            _ => DEFAULT_COMMAND,
+        }
+    }
+
+    /// Writes the XML body into `out`; returns its length.
+    pub fn encode(&self, time: &Timestamp, out: &mut [u8]) -> Result<usize, WriteError> {
+        let mut doc = DocumentWriter::begin(out, self.message_type().raw(), self.command(), time)?;
+        match self {
+            Self::Status(m) => m.write_items(&mut doc)?,
+            Self::NavResult(m) => m.write_items(&mut doc)?,
+            Self::CancelNav(m) | Self::Light(m) => m.write_items(&mut doc)?,
+            Self::NavStatus(m) => m.write_items(&mut doc)?,
+            Self::MotorTemperatures(m) => m.write_items(&mut doc)?,
+            Self::Motion(_, m) => m.write_items(&mut doc)?,
+            Self::Battery(m) => m.write_items(&mut doc)?,
+            Self::Perception(m) => m.write_items(&mut doc)?,
+            Self::Relocalize(m) => m.write_items(&mut doc)?,
+            Self::RequestError(m) => m.write_items(&mut doc)?,
+        }
+        doc.finish()
+    }
+
+    /// Reads a response body.
+    pub fn decode(asdu: &[u8]) -> Result<Decoded<Self>, DecodeError> {
+        let mut message = None;
+        let (envelope, blocks) = read_document(asdu, |envelope, items| {
+            if message.is_none() {
+                message = Some(Self::read_items(envelope, items)?);
+            }
+            Ok::<_, DecodeError>(())
+        })?;
+        if let MessageType::Unknown(raw) = MessageType::from_raw(envelope.message_type) {
+            return Err(DecodeError::UnknownType(raw));
+        }
+        match (message, blocks) {
+            (Some(message), 1) => Ok(Decoded {
+                time: envelope.time,
+                message,
+            }),
+            _ => Err(DecodeError::ItemsBlocks { found: blocks }),
+        }
+    }
+
+    /// Reads the items of an answer of the envelope's Type.
+    fn read_items(envelope: &Envelope, items: &mut Items<'_>) -> Result<Self, DecodeError> {
+        Ok(match MessageType::from_raw(envelope.message_type) {
+            MessageType::Status => Self::Status(ItemSet::read_items(items)?),
+            MessageType::NavTask => Self::NavResult(ItemSet::read_items(items)?),
+            MessageType::CancelNav => Self::CancelNav(ItemSet::read_items(items)?),
+            MessageType::NavStatus => Self::NavStatus(ItemSet::read_items(items)?),
+            MessageType::MotorTemperatures => Self::MotorTemperatures(ItemSet::read_items(items)?),
+            MessageType::Light => Self::Light(ItemSet::read_items(items)?),
+            MessageType::Motion => Self::Motion(
+                MotionCommandCode::from_raw(envelope.command),
+                ItemSet::read_items(items)?,
+            ),
+            MessageType::Battery => Self::Battery(ItemSet::read_items(items)?),
+            MessageType::Perception => Self::Perception(ItemSet::read_items(items)?),
+            MessageType::Relocalize => Self::Relocalize(ItemSet::read_items(items)?),
+            MessageType::RequestError => Self::RequestError(ItemSet::read_items(items)?),
+            MessageType::Unknown(raw) => return Err(DecodeError::UnknownType(raw)),
+        })
+    }
+}
+
+fn read_motion(command: i32, items: &mut Items<'_>) -> Result<MotionCommand, DecodeError> {
+    let mut value = None;
+    for item in items {
+        let item = item?;
+        if item.name == b"Value" {
+            value = Some(item);
+        }
+    }
+    let value = value.ok_or(DecodeError::MissingItem("Value"))?;
+    match MotionCommandCode::from_raw(command) {
+        // A gait number is an int (SPEC §4.5); reading it as a float would round large ones.
+        MotionCommandCode::SwitchGait => {
+            Ok(MotionCommand::SwitchGait(parse_item(&value, "Value")?))
+        }
+        code => MotionCommand::from_parts(code, parse_item(&value, "Value")?)
+            .ok_or(DecodeError::UnknownCommand(command)),
+    }
+}

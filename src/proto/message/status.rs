@@ -1,0 +1,229 @@
+//! Answers that describe the robot: status (1002), battery (2001), perception (2002) and
+//! motor temperatures (1008).
+
+use super::items::item_set;
+use crate::proto::codes::{
+    ChargeState, ControlMode, GaitState, Location, MotionState, MotorState, ObsState, OnDockState,
+    ProtectedState,
+};
+
+item_set! {
+    /// Type 1002 answer: the robot's real-time basic status.
+    pub struct RobotStatus {
+        /// Motion state.
+        pub motion_state: MotionState = "MotionState";
+        /// Position in the map frame, m.
+        pub pos_x: f32 = "PosX";
+        /// Position in the map frame, m.
+        pub pos_y: f32 = "PosY";
+        /// Position in the map frame, m.
+        pub pos_z: f32 = "PosZ";
+        /// Attitude in the map frame, rad.
+        pub roll: f32 = "Roll";
+        /// Attitude in the map frame, rad.
+        pub pitch: f32 = "Pitch";
+        /// Attitude in the map frame, rad.
+        pub yaw: f32 = "Yaw";
+        /// Forward speed, m/s.
+        pub speed: f32 = "Speed";
+        /// Odometry since power-on, km.
+        pub cur_odom: f32 = "CurOdom";
+        /// Total odometry, km.
+        pub sum_odom: f32 = "SumOdom";
+        /// Metres per map-image pixel.
+        pub res: f32 = "Res";
+        /// Map-frame x of the map image's bottom-left corner, m.
+        pub x0: f32 = "X0";
+        /// Map-frame y of the map image's bottom-left corner, m.
+        pub y0: f32 = "Y0";
+        /// Map image height, px.
+        pub h: i32 = "H";
+        /// Battery charge, %.
+        pub electricity: i32 = "Electricity";
+        /// Localisation state.
+        pub location: Location = "Location";
+        /// Gait (the 1002 numbering).
+        pub gait_state: GaitState = "GaitState";
+        /// Motor state.
+        pub motor_state: MotorState = "MotorState";
+        /// Charging state.
+        pub charge_state: ChargeState = "ChargeState";
+        /// Manual or automatic control.
+        pub control_mode: ControlMode = "ControlMode";
+        /// Whether the robot lies on its dock.
+        pub on_dock_state: OnDockState = "OnDockState";
+    }
+}
+
+impl RobotStatus {
+    /// Whether every item is 0, which the robot sends when it cannot read its status or
+    /// the navigation program is not running: not a robot lying at the origin.
+    pub fn is_unavailable(&self) -> bool {
+        let floats = [
+            self.pos_x,
+            self.pos_y,
+            self.pos_z,
+            self.roll,
+            self.pitch,
+            self.yaw,
+            self.speed,
+            self.cur_odom,
+            self.sum_odom,
+            self.res,
+            self.x0,
+            self.y0,
+        ];
+        let codes = [
+            self.motion_state.raw(),
+            self.h,
+            self.electricity,
+            self.location.raw(),
+            self.gait_state.raw(),
+            self.motor_state.raw(),
+            self.charge_state.raw(),
+            self.control_mode.raw(),
+            self.on_dock_state.raw(),
+        ];
+        floats.iter().all(|&f| f == 0.0) && codes.iter().all(|&c| c == 0)
+    }
+
+    /// The map image geometry this status reports.
+    pub fn map_image(&self) -> MapImage {
+        MapImage {
+            res: self.res,
+            x0: self.x0,
+            y0: self.y0,
+            h: self.h,
+        }
+    }
+}
+
+/// Geometry of the robot's map image, for converting between map and pixel coordinates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MapImage {
+    /// Metres per pixel.
+    pub res: f32,
+    /// Map-frame x of the bottom-left corner, m.
+    pub x0: f32,
+    /// Map-frame y of the bottom-left corner, m.
+    pub y0: f32,
+    /// Image height, px.
+    pub h: i32,
+}
+
+impl MapImage {
+    /// Pixel of a map-frame point: `x_p = (x − X0) / Res`, `y_p = H − (y − Y0) / Res`,
+    /// rounded to the nearest integer; `None` when `Res` is not positive or the result is
+    /// not finite.
+    pub fn to_pixel(&self, x: f32, y: f32) -> Option<(i32, i32)> {
+        if self.res.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
+            return None;
+        }
+        let xp = (x - self.x0) / self.res;
+        let yp = self.h as f32 - (y - self.y0) / self.res;
+        Some((round(xp)?, round(yp)?))
+    }
+
+    /// Map-frame point at the centre of a pixel: the inverse of [`MapImage::to_pixel`].
+    pub fn to_map(&self, xp: i32, yp: i32) -> (f32, f32) {
+        let x = xp as f32 * self.res + self.x0;
+        let y = (self.h - yp) as f32 * self.res + self.y0;
+        (x, y)
+    }
+}
+
+/// Rounds half away from zero without `std`; `None` outside the `i32` range.
+fn round(v: f32) -> Option<i32> {
+    let limit = 2_147_483_520.0; // the largest f32 below 2^31
+    if !(-limit..=limit).contains(&v) {
+        return None;
+    }
+    let half = if v < 0.0 { -0.5 } else { 0.5 };
+    Some((v + half) as i32)
+}
+
+item_set! {
+    /// Type 2001 answer: battery state.
+    pub struct Battery {
+        /// Voltage, V.
+        pub voltage: i32 = "Voltage";
+        /// Current, in units of 10 mA.
+        pub current: i32 = "Current";
+        /// Remaining capacity, in units of 10 mAh.
+        pub remaining_capacity: i32 = "RemainingCapacity";
+        /// Nominal capacity, in units of 10 mAh.
+        pub nominal_capacity: i32 = "NominalCapacity";
+        /// Charge cycles.
+        pub cycles: i32 = "Cycles";
+        /// Whether the battery's protection has triggered.
+        pub protected_state: ProtectedState = "ProtectedState";
+        /// Charge, %.
+        pub battery_level: i32 = "BatteryLevel";
+        /// Temperature, °C; absent before protocol V1.0.11.
+        pub battery_temperature: Option<f32> = "BatteryTemperature", default None;
+    }
+}
+
+item_set! {
+    /// Type 2002 answer: perception state.
+    pub struct Perception {
+        /// Whether an obstacle is on the planned path within 2 m.
+        pub obs_state: ObsState = "ObsState";
+    }
+}
+
+item_set! {
+    /// Type 1008 answer: the twelve joint motor temperatures, °C.
+    pub struct MotorTemperatures {
+        /// Left front sway (hip abduction) joint.
+        pub left_front_sway: f32 = "LeftFrontSway";
+        /// Left front hip joint.
+        pub left_front_hip: f32 = "LeftFrontHip";
+        /// Left front knee joint.
+        pub left_front_knee: f32 = "LeftFrontKnee";
+        /// Right front sway joint.
+        pub right_front_sway: f32 = "RightFrontSway";
+        /// Right front hip joint.
+        pub right_front_hip: f32 = "RightFrontHip";
+        /// Right front knee joint.
+        pub right_front_knee: f32 = "RightFrontKnee";
+        /// Left back sway joint.
+        pub left_back_sway: f32 = "LeftBackSway";
+        /// Left back hip joint.
+        pub left_back_hip: f32 = "LeftBackHip";
+        /// Left back knee joint.
+        pub left_back_knee: f32 = "LeftBackKnee";
+        /// Right back sway joint.
+        pub right_back_sway: f32 = "RightBackSway";
+        /// Right back hip joint.
+        pub right_back_hip: f32 = "RightBackHip";
+        /// Right back knee joint.
+        pub right_back_knee: f32 = "RightBackKnee";
+    }
+}
+
+impl MotorTemperatures {
+    /// All twelve temperatures, left front first, in the document's order.
+    pub fn all(&self) -> [f32; 12] {
+        [
+            self.left_front_sway,
+            self.left_front_hip,
+            self.left_front_knee,
+            self.right_front_sway,
+            self.right_front_hip,
+            self.right_front_knee,
+            self.left_back_sway,
+            self.left_back_hip,
+            self.left_back_knee,
+            self.right_back_sway,
+            self.right_back_hip,
+            self.right_back_knee,
+        ]
+    }
+
+    /// The hottest motor's temperature.
+    pub fn max(&self) -> f32 {
+        self.all().into_iter().fold(f32::MIN, f32::max)
+    }
+}

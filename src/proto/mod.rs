@@ -1,0 +1,15 @@
+//! The robot_server protocol (V1.0.12), from the wire upward.
+//!
+//! - [`frame`]: the 16-byte binary header and a streaming frame decoder.
+//! - [`xml`]: a fixed-buffer XML writer, a minimal tokenizer, and number text.
+//! - [`codes`]: every coded value of the protocol, each with an `Unknown(raw)` case.
+//! - [`message`]: typed requests and responses for every Type, in both directions.
+//!
+//! Nothing here does I/O, allocates, or panics: every fallible function returns its own
+//! error enum and writes into buffers the caller owns.
+
+pub mod codes;
+pub mod frame;
+pub mod message;
+pub mod time;
+pub mod xml;

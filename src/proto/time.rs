@@ -1,0 +1,170 @@
+//! The `Time` element: the sender's local wall-clock time, `YYYY-MM-DD HH:MM:SS`.
+//!
+//! The robot does not act on it, but sends it and expects it. A panel has no battery-backed
+//! clock, so it learns the robot's time from answers and counts on from there.
+
+/// Length of the text form `YYYY-MM-DD HH:MM:SS`.
+pub const TIME_TEXT_LEN: usize = 19;
+
+/// A calendar date and time of day, as carried in the `Time` element.
+///
+/// Type 0 answers carry the all-zero `0000-00-00 00:00:00`, so fields are not range-checked
+/// beyond their digit count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Timestamp {
+    /// Year, 0..=9999.
+    pub year: u16,
+    /// Month, 1..=12 (0 in Type 0 answers).
+    pub month: u8,
+    /// Day of the month, 1..=31 (0 in Type 0 answers).
+    pub day: u8,
+    /// Hour, 0..=23.
+    pub hour: u8,
+    /// Minute, 0..=59.
+    pub minute: u8,
+    /// Second, 0..=59.
+    pub second: u8,
+}
+
+/// The `Time` text is not `YYYY-MM-DD HH:MM:SS`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BadTimestamp;
+
+const SECONDS_PER_DAY: u64 = 86_400;
+
+impl Timestamp {
+    /// The all-zero time that Type 0 answers carry.
+    pub const ZERO: Self = Self {
+        year: 0,
+        month: 0,
+        day: 0,
+        hour: 0,
+        minute: 0,
+        second: 0,
+    };
+
+    /// The time the protocol document uses in its samples, a fixed epoch for a panel that
+    /// has not heard the robot's clock yet.
+    pub const DOCUMENT_EPOCH: Self = Self {
+        year: 2023,
+        month: 1,
+        day: 1,
+        hour: 0,
+        minute: 0,
+        second: 0,
+    };
+
+    /// Writes the text form into `out`.
+    pub fn encode(&self, out: &mut [u8; TIME_TEXT_LEN]) {
+        let fields = [
+            (0, 4, u32::from(self.year)),
+            (5, 2, u32::from(self.month)),
+            (8, 2, u32::from(self.day)),
+            (11, 2, u32::from(self.hour)),
+            (14, 2, u32::from(self.minute)),
+            (17, 2, u32::from(self.second)),
+        ];
+        *out = *b"0000-00-00 00:00:00";
+        for (at, width, value) in fields {
+            let mut value = value;
+            for slot in out.iter_mut().skip(at).take(width).rev() {
+                *slot = b'0' + (value % 10) as u8;
+                value /= 10;
+            }
+        }
+    }
+
+    /// Parses `YYYY-MM-DD HH:MM:SS`.
+    pub fn decode(text: &[u8]) -> Result<Self, BadTimestamp> {
+        let text: &[u8; TIME_TEXT_LEN] = text.try_into().map_err(|_| BadTimestamp)?;
+        let separators = [(4, b'-'), (7, b'-'), (10, b' '), (13, b':'), (16, b':')];
+        if separators
+            .iter()
+            .any(|&(at, sep)| text.get(at) != Some(&sep))
+        {
+            return Err(BadTimestamp);
+        }
+        let field = |at: usize, width: usize| -> Result<u16, BadTimestamp> {
+            text.iter()
+                .skip(at)
+                .take(width)
+                .try_fold(0u16, |acc, &b| match b {
+                    b'0'..=b'9' => Ok(acc * 10 + u16::from(b - b'0')),
+                    _ => Err(BadTimestamp),
+                })
+        };
+        let narrow = |v: u16| u8::try_from(v).map_err(|_| BadTimestamp);
+        Ok(Self {
+            year: field(0, 4)?,
+            month: narrow(field(5, 2)?)?,
+            day: narrow(field(8, 2)?)?,
+            hour: narrow(field(11, 2)?)?,
+            minute: narrow(field(14, 2)?)?,
+            second: narrow(field(17, 2)?)?,
+        })
+    }
+
+    /// The time `seconds` later, carrying into minutes, hours, days, months and years.
+    ///
+    /// Used to count on from the last time the robot told us; a zero or invalid date
+    /// counts on from the document's epoch instead.
+    pub fn plus_seconds(&self, seconds: u64) -> Self {
+        let base = if self.month == 0 || self.day == 0 {
+            Self::DOCUMENT_EPOCH
+        } else {
+            *self
+        };
+        let total = base.seconds_of_day() + seconds;
+        let days = total / SECONDS_PER_DAY;
+        let rest = total % SECONDS_PER_DAY;
+        let (year, month, day) = add_days(base.year, base.month, base.day, days);
+        Self {
+            year,
+            month,
+            day,
+            hour: (rest / 3600) as u8,
+            minute: (rest / 60 % 60) as u8,
+            second: (rest % 60) as u8,
+        }
+    }
+
+    fn seconds_of_day(&self) -> u64 {
+        u64::from(self.hour) * 3600 + u64::from(self.minute) * 60 + u64::from(self.second)
+    }
+}
+
+fn is_leap(year: u16) -> bool {
+    (year.is_multiple_of(4) && !year.is_multiple_of(100)) || year.is_multiple_of(400)
+}
+
+fn days_in_month(year: u16, month: u8) -> u8 {
+    match month {
+        2 if is_leap(year) => 29,
+        2 => 28,
+        4 | 6 | 9 | 11 => 30,
+        _ => 31,
+    }
+}
+
+/// Adds whole days to a date; years saturate at 9999 (the text has four digits).
+fn add_days(mut year: u16, mut month: u8, mut day: u8, mut days: u64) -> (u16, u8, u8) {
+    while days > 0 && year < 9999 {
+        let left_in_month =
+            u64::from(days_in_month(year, month) - day.min(days_in_month(year, month)));
+        if days <= left_in_month {
+            day += days as u8;
+            days = 0;
+        } else {
+            days -= left_in_month + 1;
+            day = 1;
+            month += 1;
+            if month > 12 {
+                month = 1;
+                year += 1;
+            }
+        }
+    }
+    (year, month, day)
+}

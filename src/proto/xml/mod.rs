@@ -1,0 +1,260 @@
+//! The XML body (ASDU) of a frame: writer, tokenizer, and the document structure.
+//!
+//! Every body is one `<PatrolDevice>` element holding `Type`, `Command`, `Time` and one or
+//! more `Items` blocks, in any order. [`read_document`] walks it once and hands each
+//! `Items` block to the caller together with the `Type` it belongs to.
+
+pub mod number;
+pub mod reader;
+pub mod writer;
+
+use crate::proto::time::Timestamp;
+use number::NumberError;
+use reader::{Token, Tokenizer, XmlError, element_text};
+
+/// Most `<Items>` blocks a document may carry (a 1003 request has one per waypoint).
+pub const MAX_ITEMS_BLOCKS: usize = 8;
+
+/// Why a document's structure was rejected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum StructureError {
+    /// The XML itself is not acceptable.
+    Xml(XmlError),
+    /// The root element is not `<PatrolDevice>`.
+    NotPatrolDevice,
+    /// A required element (`Type`, `Command`) is missing.
+    MissingElement(&'static str),
+    /// `Type`, `Command` or `Time` holds something other than plain text.
+    NotText(&'static str),
+    /// `Type` or `Command` is not an integer.
+    BadNumber(&'static str, NumberError),
+    /// `Time` is not `YYYY-MM-DD HH:MM:SS`.
+    BadTime,
+    /// More than [`MAX_ITEMS_BLOCKS`] `<Items>` blocks.
+    TooManyItemsBlocks,
+}
+
+impl From<XmlError> for StructureError {
+    fn from(e: XmlError) -> Self {
+        Self::Xml(e)
+    }
+}
+
+/// The header elements of a document.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Envelope {
+    /// The `Type` element.
+    pub message_type: i32,
+    /// The `Command` element.
+    pub command: i32,
+    /// The `Time` element; the all-zero time when absent.
+    pub time: Timestamp,
+}
+
+/// Reads a `<PatrolDevice>` document in one pass, checking all of its XML, and hands each
+/// `<Items>` block to `on_items` with the `Type` and `Command` the document declares.
+///
+/// Items can only be interpreted once `Type` is known. Real documents put it first, so
+/// blocks are normally read as the pass reaches them; a block that comes before `Type`
+/// or `Command` (and every block after it, to keep their order) is remembered and read
+/// once the pass has found both. Returns the envelope and the number of blocks.
+pub fn read_document<'a, E>(
+    input: &'a [u8],
+    mut on_items: impl FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
+) -> Result<(Envelope, usize), E>
+where
+    E: From<StructureError>,
+{
+    let mut tokens = Tokenizer::document(input);
+    let xml = |e: XmlError| E::from(StructureError::Xml(e));
+    match tokens.next_token().map_err(xml)? {
+        Some(Token::Start(b"PatrolDevice")) => {}
+        _ => return Err(StructureError::NotPatrolDevice.into()),
+    }
+    let mut message_type = None;
+    let mut command = None;
+    let mut time = Timestamp::ZERO;
+    let mut deferred = [const { 0..0 }; MAX_ITEMS_BLOCKS];
+    let mut deferred_count = 0;
+    let mut blocks = 0;
+    while let Some(token) = tokens.next_token().map_err(xml)? {
+        let (live, empty) = match token {
+            Token::Start(b"Items") => (true, false),
+            Token::Empty(b"Items") => (false, true),
+            Token::Start(b"Type") => {
+                message_type = Some(header_int(&mut tokens, "Type")?);
+                continue;
+            }
+            Token::Start(b"Command") => {
+                command = Some(header_int(&mut tokens, "Command")?);
+                continue;
+            }
+            Token::Start(b"Time") => {
+                let text = header_text(&mut tokens, "Time")?;
+                time = Timestamp::decode(text).map_err(|_| StructureError::BadTime)?;
+                continue;
+            }
+            Token::Start(_) => {
+                skip_element(&mut tokens).map_err(xml)?;
+                continue;
+            }
+            Token::End(_) | Token::Empty(_) | Token::Text(_) => continue,
+        };
+        blocks += 1;
+        if blocks > MAX_ITEMS_BLOCKS {
+            return Err(StructureError::TooManyItemsBlocks.into());
+        }
+        match (message_type, command) {
+            (Some(message_type), Some(command)) if deferred_count == 0 => {
+                let envelope = Envelope {
+                    message_type,
+                    command,
+                    time,
+                };
+                if empty {
+                    on_items(&envelope, &mut Items::fragment(&[]))?;
+                } else {
+                    let mut items = Items::inside(tokens.clone());
+                    on_items(&envelope, &mut items)?;
+                    tokens = items.finish().map_err(xml)?;
+                }
+            }
+            _ => {
+                let start = tokens.offset();
+                let end = if live {
+                    skip_element(&mut tokens).map_err(xml)?
+                } else {
+                    start
+                };
+                if let Some(slot) = deferred.get_mut(deferred_count) {
+                    *slot = start..end;
+                    deferred_count += 1;
+                }
+            }
+        }
+    }
+    let envelope = Envelope {
+        message_type: message_type.ok_or(StructureError::MissingElement("Type"))?,
+        command: command.ok_or(StructureError::MissingElement("Command"))?,
+        time,
+    };
+    for range in deferred.iter().take(deferred_count) {
+        let content = tokens.input().get(range.clone()).unwrap_or_default();
+        let mut items = Items::fragment(content);
+        on_items(&envelope, &mut items)?;
+        items.finish().map_err(xml)?;
+    }
+    Ok((envelope, blocks))
+}
+
+/// Consumes the rest of an element whose start tag was just read; returns the offset of
+/// its end tag.
+fn skip_element(tokens: &mut Tokenizer<'_>) -> Result<usize, XmlError> {
+    let depth = tokens.depth();
+    loop {
+        let at = tokens.offset();
+        match tokens.next_token()? {
+            Some(Token::End(_)) if tokens.depth() < depth => return Ok(at),
+            Some(_) => {}
+            None => return Ok(at),
+        }
+    }
+}
+
+fn header_text<'a>(
+    tokens: &mut Tokenizer<'a>,
+    name: &'static str,
+) -> Result<&'a [u8], StructureError> {
+    element_text(tokens)?
+        .map(<[u8]>::trim_ascii)
+        .ok_or(StructureError::NotText(name))
+}
+
+fn header_int(tokens: &mut Tokenizer<'_>, name: &'static str) -> Result<i32, StructureError> {
+    number::parse_int(header_text(tokens, name)?).map_err(|e| StructureError::BadNumber(name, e))
+}
+
+/// One item: its element name and, if it holds only text, that text with surrounding
+/// whitespace removed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Item<'a> {
+    /// The element name.
+    pub name: &'a [u8],
+    /// The trimmed text, or `None` if the element holds child elements.
+    pub text: Option<&'a [u8]>,
+}
+
+/// The items of one `<Items>` block, in document order; unknown ones are the caller's to
+/// skip.
+#[derive(Debug, Clone)]
+pub struct Items<'a> {
+    tokens: Tokenizer<'a>,
+    /// Depth of the `<Items>` element: its end tag brings the tokenizer below this.
+    depth: usize,
+    done: bool,
+}
+
+impl<'a> Items<'a> {
+    /// Items read from the document's own tokenizer, just after `<Items>`.
+    fn inside(tokens: Tokenizer<'a>) -> Self {
+        Self {
+            depth: tokens.depth(),
+            tokens,
+            done: false,
+        }
+    }
+
+    /// Items read from the content of a block remembered earlier.
+    fn fragment(content: &'a [u8]) -> Self {
+        Self {
+            tokens: Tokenizer::fragment(content),
+            depth: 0,
+            done: false,
+        }
+    }
+
+    /// Reads whatever the consumer left, so the whole block is checked, and hands the
+    /// tokenizer back positioned after `</Items>`.
+    fn finish(mut self) -> Result<Tokenizer<'a>, XmlError> {
+        for item in &mut self {
+            item?;
+        }
+        Ok(self.tokens)
+    }
+}
+
+impl<'a> Iterator for Items<'a> {
+    type Item = Result<Item<'a>, XmlError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        while !self.done {
+            let token = match self.tokens.next_token() {
+                Ok(Some(token)) => token,
+                Ok(None) => break,
+                Err(e) => {
+                    self.done = true;
+                    return Some(Err(e));
+                }
+            };
+            return Some(match token {
+                Token::Start(name) => element_text(&mut self.tokens).map(|text| Item {
+                    name,
+                    text: text.map(<[u8]>::trim_ascii),
+                }),
+                Token::Empty(name) => Ok(Item {
+                    name,
+                    text: Some(&[]),
+                }),
+                Token::End(_) if self.tokens.depth() < self.depth => break,
+                // Stray text between items is layout; other end tags are consumed by
+                // element_text.
+                Token::Text(_) | Token::End(_) => continue,
+            });
+        }
+        self.done = true;
+        None
+    }
+}

@@ -1,0 +1,353 @@
+//! A minimal XML tokenizer for the protocol's documents.
+//!
+//! It accepts what real robots and clients send (SPEC §3 and §5): a declaration in either
+//! quote style or none, any whitespace, comments anywhere, attributes (ignored), and
+//! elements in any order. It refuses what the protocol never needs and what could be used
+//! against a small device: DTDs and entity declarations, CDATA, unknown entity references,
+//! mismatched tags, content after the root element, and nesting deeper than
+//! [`MAX_DEPTH`]. It works on the caller's bytes and never copies or allocates.
+
+/// Deepest element nesting accepted: `PatrolDevice` › `Items` › item › one more level, so
+/// an unknown structured item can still be skipped.
+pub const MAX_DEPTH: usize = 4;
+
+/// What was wrong with a document, and where.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct XmlError {
+    /// What was wrong.
+    pub kind: XmlErrorKind,
+    /// Byte offset in the input where it was found.
+    pub offset: usize,
+}
+
+/// The kinds of [`XmlError`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum XmlErrorKind {
+    /// The input ended inside markup or with elements still open.
+    UnexpectedEnd,
+    /// The input holds no root element.
+    NoRoot,
+    /// A `<!DOCTYPE` or `<!ENTITY` declaration; refused so no entity can expand.
+    Dtd,
+    /// A CDATA section; the protocol never uses one.
+    Cdata,
+    /// An `&` reference other than the five predefined entities or a character reference.
+    UnknownEntity,
+    /// An end tag that does not match the open element.
+    MismatchedTag,
+    /// Elements nested deeper than [`MAX_DEPTH`].
+    TooDeep,
+    /// Something other than whitespace, comments or processing instructions after the root
+    /// element.
+    TrailingContent,
+    /// Text outside the root element.
+    TextOutsideRoot,
+    /// A tag, attribute or name that is not well formed.
+    MalformedTag,
+}
+
+/// One piece of a document. Comments, the declaration and processing instructions are
+/// consumed silently.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Token<'a> {
+    /// `<name ...>`
+    Start(&'a [u8]),
+    /// `</name>`
+    End(&'a [u8]),
+    /// `<name .../>`
+    Empty(&'a [u8]),
+    /// Character data between tags, as written (entity references left in place).
+    Text(&'a [u8]),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Place {
+    Prolog,
+    Root,
+    Epilog,
+}
+
+/// Splits a document, or a fragment of one, into [`Token`]s.
+#[derive(Debug, Clone)]
+pub struct Tokenizer<'a> {
+    input: &'a [u8],
+    pos: usize,
+    open: [&'a [u8]; MAX_DEPTH],
+    depth: usize,
+    place: Place,
+    fragment: bool,
+}
+
+impl<'a> Tokenizer<'a> {
+    /// A tokenizer for a whole document with exactly one root element.
+    pub fn document(input: &'a [u8]) -> Self {
+        let input = input.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(input);
+        Self {
+            input,
+            pos: 0,
+            open: [&[]; MAX_DEPTH],
+            depth: 0,
+            place: Place::Prolog,
+            fragment: false,
+        }
+    }
+
+    /// A tokenizer for element content already checked by a document pass, such as the
+    /// inside of an `<Items>` block: any number of elements and text at the top.
+    pub fn fragment(input: &'a [u8]) -> Self {
+        Self {
+            place: Place::Root,
+            fragment: true,
+            ..Self::document(input)
+        }
+    }
+
+    /// Byte offset of the next token.
+    pub fn offset(&self) -> usize {
+        self.pos
+    }
+
+    /// Number of elements currently open.
+    pub fn depth(&self) -> usize {
+        self.depth
+    }
+
+    /// The input the offsets refer to.
+    pub fn input(&self) -> &'a [u8] {
+        self.input
+    }
+
+    fn error(&self, kind: XmlErrorKind) -> XmlError {
+        XmlError {
+            kind,
+            offset: self.pos,
+        }
+    }
+
+    fn rest(&self) -> &'a [u8] {
+        self.input.get(self.pos..).unwrap_or_default()
+    }
+
+    /// Advances past the first `needle` after the current position.
+    fn skip_past(&mut self, needle: &[u8]) -> Result<(), XmlError> {
+        let at = find(self.rest(), needle).ok_or(self.error(XmlErrorKind::UnexpectedEnd))?;
+        self.pos += at + needle.len();
+        Ok(())
+    }
+
+    /// The next token, or `None` at the end of a complete document.
+    pub fn next_token(&mut self) -> Result<Option<Token<'a>>, XmlError> {
+        loop {
+            let rest = self.rest();
+            let Some(&first) = rest.first() else {
+                return match (self.place, self.fragment) {
+                    (_, true) | (Place::Epilog, _) if self.depth == 0 => Ok(None),
+                    (Place::Prolog, _) => Err(self.error(XmlErrorKind::NoRoot)),
+                    _ => Err(self.error(XmlErrorKind::UnexpectedEnd)),
+                };
+            };
+            if first != b'<' {
+                let len = rest.iter().position(|&b| b == b'<').unwrap_or(rest.len());
+                let text = rest.get(..len).unwrap_or_default();
+                if self.place != Place::Root || self.depth == 0 && !self.fragment {
+                    if text.iter().all(u8::is_ascii_whitespace) {
+                        self.pos += len;
+                        continue;
+                    }
+                    return Err(self.error(match self.place {
+                        Place::Epilog => XmlErrorKind::TrailingContent,
+                        _ => XmlErrorKind::TextOutsideRoot,
+                    }));
+                }
+                self.check_references(text)?;
+                self.pos += len;
+                return Ok(Some(Token::Text(text)));
+            }
+            let markup = rest.get(1..).unwrap_or_default();
+            if markup.starts_with(b"?") {
+                self.skip_past(b"?>")?;
+            } else if markup.starts_with(b"!--") {
+                self.pos += 4;
+                self.skip_past(b"-->")?;
+            } else if markup.starts_with(b"![CDATA[") {
+                return Err(self.error(XmlErrorKind::Cdata));
+            } else if markup.starts_with(b"!DOCTYPE") || markup.starts_with(b"!ENTITY") {
+                return Err(self.error(XmlErrorKind::Dtd));
+            } else if markup.starts_with(b"!") {
+                return Err(self.error(XmlErrorKind::MalformedTag));
+            } else if let Some(tag) = markup.strip_prefix(b"/") {
+                return self.end_tag(tag).map(Some);
+            } else {
+                return self.start_tag(markup).map(Some);
+            }
+        }
+    }
+
+    fn end_tag(&mut self, tag: &'a [u8]) -> Result<Token<'a>, XmlError> {
+        let name_len = name_len(tag);
+        let name = tag.get(..name_len).unwrap_or_default();
+        let after = tag.get(name_len..).unwrap_or_default();
+        let close = after
+            .iter()
+            .position(|&b| b == b'>')
+            .ok_or(self.error(XmlErrorKind::UnexpectedEnd))?;
+        let between = after.get(..close).unwrap_or_default();
+        if name.is_empty() || !between.iter().all(u8::is_ascii_whitespace) {
+            return Err(self.error(XmlErrorKind::MalformedTag));
+        }
+        let open = self
+            .depth
+            .checked_sub(1)
+            .and_then(|d| self.open.get(d))
+            .copied();
+        if open != Some(name) {
+            return Err(self.error(XmlErrorKind::MismatchedTag));
+        }
+        self.depth -= 1;
+        if self.depth == 0 && !self.fragment {
+            self.place = Place::Epilog;
+        }
+        self.pos += 2 + name_len + close + 1;
+        Ok(Token::End(name))
+    }
+
+    fn start_tag(&mut self, tag: &'a [u8]) -> Result<Token<'a>, XmlError> {
+        if self.place == Place::Epilog {
+            return Err(self.error(XmlErrorKind::TrailingContent));
+        }
+        let name_len = name_len(tag);
+        let name = tag.get(..name_len).unwrap_or_default();
+        if name.is_empty() {
+            return Err(self.error(XmlErrorKind::MalformedTag));
+        }
+        let (attrs_len, empty) = self.attributes(tag.get(name_len..).unwrap_or_default())?;
+        // '<' + name + attributes + '>' or '/>'
+        let tag_len = 1 + name_len + attrs_len + if empty { 2 } else { 1 };
+        if empty {
+            if self.depth == 0 && !self.fragment {
+                self.place = Place::Epilog;
+            }
+            self.pos += tag_len;
+            return Ok(Token::Empty(name));
+        }
+        let slot = self.open.get_mut(self.depth).ok_or(XmlError {
+            kind: XmlErrorKind::TooDeep,
+            offset: self.pos,
+        })?;
+        *slot = name;
+        self.depth += 1;
+        self.place = Place::Root;
+        self.pos += tag_len;
+        Ok(Token::Start(name))
+    }
+
+    /// Checks `name="value"` pairs up to the tag's end; returns their length and whether the
+    /// tag closes itself.
+    fn attributes(&self, attrs: &[u8]) -> Result<(usize, bool), XmlError> {
+        let malformed = self.error(XmlErrorKind::MalformedTag);
+        let end = self.error(XmlErrorKind::UnexpectedEnd);
+        let mut at = 0;
+        loop {
+            let rest = attrs.get(at..).unwrap_or_default();
+            let ws = rest.iter().take_while(|b| b.is_ascii_whitespace()).count();
+            let rest = rest.get(ws..).unwrap_or_default();
+            match rest {
+                [] => return Err(end),
+                [b'>', ..] => return Ok((at + ws, false)),
+                [b'/', b'>', ..] => return Ok((at + ws, true)),
+                [b'/'] => return Err(end),
+                _ if ws == 0 && at > 0 => return Err(malformed),
+                _ => {}
+            }
+            let name = name_len(rest);
+            let quote = match rest.get(name..) {
+                Some([b'=', q @ (b'"' | b'\''), ..]) if name > 0 => *q,
+                Some([] | [b'=']) => return Err(end),
+                _ => return Err(malformed),
+            };
+            let value = rest.get(name + 2..).unwrap_or_default();
+            let close = value.iter().position(|&b| b == quote).ok_or(end)?;
+            let value = value.get(..close).unwrap_or_default();
+            if value.contains(&b'<') {
+                return Err(malformed);
+            }
+            self.check_references(value)?;
+            at += ws + name + 2 + close + 1;
+        }
+    }
+
+    /// Refuses `&` references other than the predefined entities and character references.
+    fn check_references(&self, text: &[u8]) -> Result<(), XmlError> {
+        let mut rest = text;
+        while let Some(amp) = rest.iter().position(|&b| b == b'&') {
+            let after = rest.get(amp + 1..).unwrap_or_default();
+            let semi = after.iter().position(|&b| b == b';');
+            let entity = semi.and_then(|s| after.get(..s)).unwrap_or_default();
+            let known = matches!(entity, b"lt" | b"gt" | b"amp" | b"quot" | b"apos")
+                || is_char_reference(entity);
+            if !known {
+                let offset = self.pos + (text.len() - rest.len()) + amp;
+                return Err(XmlError {
+                    kind: XmlErrorKind::UnknownEntity,
+                    offset,
+                });
+            }
+            rest = after.get(entity.len() + 1..).unwrap_or_default();
+        }
+        Ok(())
+    }
+}
+
+fn is_char_reference(entity: &[u8]) -> bool {
+    match entity {
+        [b'#', b'x', hex @ ..] => !hex.is_empty() && hex.iter().all(u8::is_ascii_hexdigit),
+        [b'#', dec @ ..] => !dec.is_empty() && dec.iter().all(u8::is_ascii_digit),
+        _ => false,
+    }
+}
+
+/// Length of the XML name at the start of `bytes`.
+fn name_len(bytes: &[u8]) -> usize {
+    bytes
+        .iter()
+        .take_while(|&&b| {
+            b.is_ascii_alphanumeric() || matches!(b, b'_' | b'-' | b'.' | b':') || b >= 0x80
+        })
+        .count()
+}
+
+/// Position of `needle` in `haystack`.
+fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
+    haystack.windows(needle.len()).position(|w| w == needle)
+}
+
+/// Content of a simple element after its start tag: `Some(text)` when it holds only text
+/// (or nothing), `None` when it holds child elements or comments split its text.
+///
+/// Consumes everything up to and including the element's end tag.
+pub fn element_text<'a>(tokens: &mut Tokenizer<'a>) -> Result<Option<&'a [u8]>, XmlError> {
+    let depth = tokens.depth();
+    let mut text: Option<&'a [u8]> = Some(&[]);
+    let mut seen_text = false;
+    loop {
+        match tokens.next_token()? {
+            Some(Token::End(_)) if tokens.depth() < depth => return Ok(text),
+            // Whitespace around a comment inside a value is layout, not part of the value.
+            Some(Token::Text(t)) if t.iter().all(u8::is_ascii_whitespace) => {
+                if !seen_text && text.is_some_and(<[u8]>::is_empty) {
+                    text = Some(t);
+                }
+            }
+            Some(Token::Text(t)) if !seen_text => {
+                seen_text = true;
+                text = text.map(|_| t);
+            }
+            Some(_) => text = None,
+            None => return Err(tokens.error(XmlErrorKind::UnexpectedEnd)),
+        }
+    }
+}

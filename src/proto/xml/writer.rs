@@ -1,0 +1,257 @@
+//! A fixed-buffer XML writer that produces the layout of the protocol document.
+//!
+//! ```xml
+//! <?xml version="1.0" encoding="UTF-8"?>
+//! <PatrolDevice>
+//!   <Type>2</Type>
+//!   <Command>1</Command>
+//!   <Time>2023-01-01 00:00:00</Time>
+//!   <Items>
+//!     <Value>-1</Value>
+//!   </Items>
+//! </PatrolDevice>
+//! ```
+//!
+//! Every write either fits or fails with [`WriteError::BufferFull`]; nothing is ever
+//! truncated silently.
+
+use super::number::{self, F32_TEXT_MAX, I64_TEXT_MAX};
+use crate::proto::time::{TIME_TEXT_LEN, Timestamp};
+
+/// Why a document could not be written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum WriteError {
+    /// The caller's buffer is too small for the document.
+    BufferFull,
+    /// A float item is NaN or infinite, which has no text form.
+    NotFinite {
+        /// The item's element name.
+        item: &'static str,
+    },
+}
+
+/// Appends bytes to the caller's buffer, failing rather than truncating.
+#[derive(Debug)]
+pub struct XmlWriter<'a> {
+    buf: &'a mut [u8],
+    len: usize,
+}
+
+impl<'a> XmlWriter<'a> {
+    /// A writer that starts at the beginning of `buf`.
+    pub fn new(buf: &'a mut [u8]) -> Self {
+        Self { buf, len: 0 }
+    }
+
+    /// Bytes written so far.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether nothing has been written yet.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Appends bytes as they are (markup the caller knows to be well formed).
+    pub fn raw(&mut self, bytes: &[u8]) -> Result<(), WriteError> {
+        let end = self.len + bytes.len();
+        self.buf
+            .get_mut(self.len..end)
+            .ok_or(WriteError::BufferFull)?
+            .copy_from_slice(bytes);
+        self.len = end;
+        Ok(())
+    }
+
+    /// Appends character data, escaping the five characters XML reserves.
+    pub fn text(&mut self, text: &str) -> Result<(), WriteError> {
+        for chunk in text.split_inclusive(['&', '<', '>', '"', '\'']) {
+            let (plain, reserved) = match chunk.as_bytes().split_last() {
+                Some((&last, rest)) if b"&<>\"'".contains(&last) => (rest, Some(last)),
+                _ => (chunk.as_bytes(), None),
+            };
+            self.raw(plain)?;
+            if let Some(reserved) = reserved {
+                self.raw(escape(reserved))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes `<name>`.
+    pub fn start(&mut self, name: &str) -> Result<(), WriteError> {
+        self.raw(b"<")?;
+        self.raw(name.as_bytes())?;
+        self.raw(b">")
+    }
+
+    /// Writes `</name>`.
+    pub fn end(&mut self, name: &str) -> Result<(), WriteError> {
+        self.raw(b"</")?;
+        self.raw(name.as_bytes())?;
+        self.raw(b">")
+    }
+
+    /// Writes `<name>value</name>` with `value` already formatted.
+    fn element(&mut self, name: &str, value: &[u8]) -> Result<(), WriteError> {
+        self.line(b"", name.as_bytes(), value, b"")
+    }
+
+    /// Writes `{indent}<name>value</name>{newline}` with one bounds check: an item line is
+    /// the unit of almost every document, and many tiny checked copies cost more than the
+    /// text itself.
+    fn line(
+        &mut self,
+        indent: &[u8],
+        name: &[u8],
+        value: &[u8],
+        newline: &[u8],
+    ) -> Result<(), WriteError> {
+        let pieces: [&[u8]; 9] = [indent, b"<", name, b">", value, b"</", name, b">", newline];
+        let total: usize = pieces.iter().map(|p| p.len()).sum();
+        let mut out = self
+            .buf
+            .get_mut(self.len..self.len + total)
+            .ok_or(WriteError::BufferFull)?;
+        for piece in pieces {
+            let (head, tail) = out
+                .split_at_mut_checked(piece.len())
+                .ok_or(WriteError::BufferFull)?;
+            head.copy_from_slice(piece);
+            out = tail;
+        }
+        self.len += total;
+        Ok(())
+    }
+
+    /// Writes `<name>value</name>` for an integer.
+    pub fn int_element(&mut self, name: &str, value: i64) -> Result<(), WriteError> {
+        let mut text = [0; I64_TEXT_MAX];
+        let n = number::write_i64(value, &mut text);
+        self.element(name, text.get(..n).unwrap_or_default())
+    }
+
+    /// Writes `<name>value</name>` for a float, in its shortest exact form.
+    pub fn float_element(&mut self, name: &'static str, value: f32) -> Result<(), WriteError> {
+        let mut text = [0; F32_TEXT_MAX];
+        let n = number::write_f32(value, &mut text)
+            .map_err(|_| WriteError::NotFinite { item: name })?;
+        self.element(name, text.get(..n).unwrap_or_default())
+    }
+
+    /// Writes `<name>YYYY-MM-DD HH:MM:SS</name>`.
+    pub fn time_element(&mut self, name: &str, time: &Timestamp) -> Result<(), WriteError> {
+        let mut text = [0; TIME_TEXT_LEN];
+        time.encode(&mut text);
+        self.element(name, &text)
+    }
+}
+
+fn escape(reserved: u8) -> &'static [u8] {
+    match reserved {
+        b'&' => b"&amp;",
+        b'<' => b"&lt;",
+        b'>' => b"&gt;",
+        b'"' => b"&quot;",
+        _ => b"&apos;",
+    }
+}
+
+/// The XML declaration every document starts with.
+const DECLARATION: &[u8] = b"<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
+const ROOT: &str = "PatrolDevice";
+const ITEMS: &str = "Items";
+const CHILD_INDENT: &[u8] = b"  ";
+const ITEM_INDENT: &[u8] = b"    ";
+
+/// Writes one `<PatrolDevice>` document: header elements, then items, in the document's layout.
+///
+/// Items open an `<Items>` block on first use; a document with no items gets `<Items/>`.
+#[derive(Debug)]
+pub struct DocumentWriter<'a> {
+    w: XmlWriter<'a>,
+    items_open: bool,
+    blocks: usize,
+}
+
+impl<'a> DocumentWriter<'a> {
+    /// Writes the declaration and the `Type`, `Command` and `Time` elements into `buf`.
+    pub fn begin(
+        buf: &'a mut [u8],
+        message_type: i32,
+        command: i32,
+        time: &Timestamp,
+    ) -> Result<Self, WriteError> {
+        let mut w = XmlWriter::new(buf);
+        w.raw(DECLARATION)?;
+        w.start(ROOT)?;
+        w.raw(b"\n")?;
+        w.raw(CHILD_INDENT)?;
+        w.int_element("Type", message_type.into())?;
+        w.raw(b"\n")?;
+        w.raw(CHILD_INDENT)?;
+        w.int_element("Command", command.into())?;
+        w.raw(b"\n")?;
+        w.raw(CHILD_INDENT)?;
+        w.time_element("Time", time)?;
+        w.raw(b"\n")?;
+        Ok(Self {
+            w,
+            items_open: false,
+            blocks: 0,
+        })
+    }
+
+    /// Writes an integer item.
+    pub fn int_item(&mut self, name: &str, value: i64) -> Result<(), WriteError> {
+        let mut text = [0; I64_TEXT_MAX];
+        let n = number::write_i64(value, &mut text);
+        self.item(name, text.get(..n).unwrap_or_default())
+    }
+
+    /// Writes a float item.
+    pub fn float_item(&mut self, name: &'static str, value: f32) -> Result<(), WriteError> {
+        let mut text = [0; F32_TEXT_MAX];
+        let n = number::write_f32(value, &mut text)
+            .map_err(|_| WriteError::NotFinite { item: name })?;
+        self.item(name, text.get(..n).unwrap_or_default())
+    }
+
+    /// Writes one item line, opening the `<Items>` block if needed.
+    fn item(&mut self, name: &str, value: &[u8]) -> Result<(), WriteError> {
+        if !self.items_open {
+            self.w.raw(CHILD_INDENT)?;
+            self.w.raw(b"<Items>\n")?;
+            self.items_open = true;
+        }
+        self.w.line(ITEM_INDENT, name.as_bytes(), value, b"\n")
+    }
+
+    /// Closes the current `<Items>` block, so the next item starts another one (a 1003
+    /// request carries one block per waypoint).
+    pub fn end_items_block(&mut self) -> Result<(), WriteError> {
+        if self.items_open {
+            self.w.raw(CHILD_INDENT)?;
+            self.w.end(ITEMS)?;
+            self.w.raw(b"\n")?;
+            self.items_open = false;
+            self.blocks += 1;
+        }
+        Ok(())
+    }
+
+    /// Closes the document and returns its length in bytes.
+    pub fn finish(mut self) -> Result<usize, WriteError> {
+        self.end_items_block()?;
+        if self.blocks == 0 {
+            self.w.raw(CHILD_INDENT)?;
+            self.w.raw(b"<Items/>\n")?;
+        }
+        self.w.end(ROOT)?;
+        self.w.raw(b"\n")?;
+        Ok(self.w.len())
+    }
+}
