@@ -14,9 +14,14 @@ size_of() {
 }
 sum() { awk -v want="$1" '$1 ~ want { s += $2 } END { print s + 0 }'; }
 base=$(size_of base "")
-codec=$(size_of codec "--features codec")
 flash() { echo "$1" | sum '^\.(text|rodata|data)$'; }
 ram() { echo "$1" | sum '^\.(data|bss)$'; }
-f=$(( $(flash "$codec") - $(flash "$base") ))
-r=$(( $(ram "$codec") - $(ram "$base") ))
-echo "codec flash: $f bytes ($(( (f + 1023) / 1024 )) KiB), static RAM: $r bytes"
+report() {
+    local sizes f r
+    sizes=$(size_of "$1" "--features $1")
+    f=$(( $(flash "$sizes") - $(flash "$base") ))
+    r=$(( $(ram "$sizes") - $(ram "$base") ))
+    printf '%-60s flash %6d bytes (%4.1f KiB), static RAM %d bytes\n' "$2" "$f" "$(awk -v f="$f" "BEGIN { print f / 1024 }")" "$r"
+}
+report codec "panel: encode every request, decode every response"
+report robot-side "both directions: also decode requests, encode responses"

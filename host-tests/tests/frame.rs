@@ -166,7 +166,7 @@ fn oversize_frame_is_skipped_without_losing_the_next() {
     let bytes = [
         frame(1, &big),
         frame(2, b"next"),
-        frame(3, &vec![b'C'; 48]),
+        frame(3, &[b'C'; 48]),
         frame(4, b"after"),
     ]
     .concat();

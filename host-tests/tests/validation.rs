@@ -3,9 +3,12 @@
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::*;
 
+/// A motion command built from its speed.
+type MotionWithSpeed = fn(Speed) -> MotionCommand;
+
 #[test]
 fn speed_ranges_per_motion_command() {
-    let cases: [(fn(Speed) -> MotionCommand, f32); 6] = [
+    let cases: [(MotionWithSpeed, f32); 6] = [
         (MotionCommand::Forward, 1.5),
         (MotionCommand::Backward, 1.3),
         (MotionCommand::TurnLeft, 0.45),

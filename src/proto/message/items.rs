@@ -1,92 +1,207 @@
 //! How typed fields become `<Items>` children and back.
 //!
-//! [`ItemValue`] says how one field is written and parsed; the `item_set!` macro turns a
-//! struct definition that names each field's element into the struct plus its
-//! [`ItemSet`] implementation, so the list of items is written down once per message.
+//! Every item is an integer or a float on the wire, so a message's items are described by
+//! a table of [`ItemSpec`]s and carried through one array of [`Raw`] values: one reader
+//! and one writer serve every message, and each message adds only its table and the conversion
+//! between its fields and that array. The `item_set!` macro writes both from a struct
+//! definition that names each field's element, so the list of items is written down once.
+//! Keeping per-message code this small is what lets the whole codec fit a few KiB of flash.
 
 use super::DecodeError;
-use crate::proto::xml::number::{self, NumberError};
+use crate::proto::xml::number;
 use crate::proto::xml::writer::{DocumentWriter, WriteError};
 use crate::proto::xml::{Item, Items};
 
-/// A field type that can be an item: written as text, parsed from text.
+/// What an item holds on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// A float.
+    Float,
+    /// An integer that fits `i32`.
+    Int,
+    /// An integer in `0..=255` (the indicator light's colour and brightness).
+    Byte,
+}
+
+/// One item of a message: its element name, what it holds, and whether it may be absent.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ItemSpec {
+    /// The element name as the document spells it. Reading matches it without regard to
+    /// ASCII case, which also accepts the vendor client's `MapId` for `MapID`.
+    pub name: &'static str,
+    /// Integer or float.
+    pub kind: Kind,
+    /// Whether a document without the item is an error.
+    pub required: bool,
+}
+
+/// One item's value as received: the bits of an `i32` or an `f32`, or `None` if absent.
+pub type Raw = Option<u32>;
+
+/// A field type that can be an item.
 pub trait ItemValue: Sized {
-    /// Parses the item's trimmed text.
-    fn parse(text: &[u8]) -> Result<Self, NumberError>;
-    /// Writes `<name>value</name>` as an item line.
-    fn write(&self, name: &'static str, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError>;
+    /// What the item holds on the wire.
+    const KIND: Kind;
+    /// The field as the bits of its wire value; `None` to leave the item out.
+    fn to_raw(&self) -> Raw;
+    /// The field from the bits of a wire value of its own kind.
+    fn from_raw_bits(bits: u32) -> Self;
 }
 
 impl ItemValue for f32 {
-    fn parse(text: &[u8]) -> Result<Self, NumberError> {
-        number::parse_f32(text)
+    const KIND: Kind = Kind::Float;
+
+    fn to_raw(&self) -> Raw {
+        Some(self.to_bits())
     }
 
-    fn write(&self, name: &'static str, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError> {
-        doc.float_item(name, *self)
+    fn from_raw_bits(bits: u32) -> Self {
+        f32::from_bits(bits)
     }
 }
 
-/// Integer fields.
-macro_rules! int_item_value {
-    ($($ty:ty),*) => {$(
-        impl ItemValue for $ty {
-            fn parse(text: &[u8]) -> Result<Self, NumberError> {
-                number::parse_int(text)
-            }
+impl ItemValue for i32 {
+    const KIND: Kind = Kind::Int;
 
-            fn write(&self, name: &'static str, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError> {
-                doc.int_item(name, i64::from(*self))
-            }
-        }
-    )*};
+    fn to_raw(&self) -> Raw {
+        Some(*self as u32)
+    }
+
+    fn from_raw_bits(bits: u32) -> Self {
+        bits as i32
+    }
 }
-int_item_value!(i32, u8);
+
+impl ItemValue for u8 {
+    const KIND: Kind = Kind::Byte;
+
+    fn to_raw(&self) -> Raw {
+        Some(u32::from(*self))
+    }
+
+    fn from_raw_bits(bits: u32) -> Self {
+        bits as u8
+    }
+}
 
 /// An optional item: absent from older robots, written only when present.
 impl<T: ItemValue> ItemValue for Option<T> {
-    fn parse(text: &[u8]) -> Result<Self, NumberError> {
-        T::parse(text).map(Some)
+    const KIND: Kind = T::KIND;
+
+    fn to_raw(&self) -> Raw {
+        self.as_ref().and_then(T::to_raw)
     }
 
-    fn write(&self, name: &'static str, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError> {
-        match self {
-            Some(value) => value.write(name, doc),
-            None => Ok(()),
-        }
+    fn from_raw_bits(bits: u32) -> Self {
+        Some(T::from_raw_bits(bits))
     }
+}
+
+/// A field from its item as received, or `default` when the item was absent.
+pub fn field<T: ItemValue>(raw: Raw, default: impl FnOnce() -> T) -> T {
+    raw.map_or_else(default, T::from_raw_bits)
 }
 
 /// A message's items as a whole.
 pub trait ItemSet: Sized {
+    /// The items, in the order the document lists them.
+    const SPEC: &'static [ItemSpec];
+    /// One wire value per item, in [`ItemSet::SPEC`] order.
+    type Values: AsRef<[Raw]> + AsMut<[Raw]> + Default;
+
+    /// The fields as wire values.
+    fn to_values(&self) -> Self::Values;
+    /// The fields from wire values, every required one present.
+    fn from_values(values: Self::Values) -> Self;
+
     /// Writes every item.
-    fn write_items(&self, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError>;
-    /// Reads the items of one block; unknown items are skipped, missing required ones are
-    /// an error naming them.
-    fn read_items(items: &mut Items<'_>) -> Result<Self, DecodeError>;
+    fn write_items(&self, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError> {
+        write_values(doc, Self::SPEC, self.to_values().as_ref())
+    }
+
+    /// Reads the items of one block; unknown items are skipped, a missing required one is
+    /// an error naming it.
+    fn read_items(items: &mut Items<'_>) -> Result<Self, DecodeError> {
+        let mut values = Self::Values::default();
+        read_values(items, Self::SPEC, values.as_mut())?;
+        Ok(Self::from_values(values))
+    }
 }
 
-/// Parses one item's text into `T`, naming the item on failure.
-pub(crate) fn parse_item<T: ItemValue>(
-    item: &Item<'_>,
-    name: &'static str,
-) -> Result<T, DecodeError> {
-    let text = item.text.ok_or(DecodeError::ItemNotText(name))?;
-    T::parse(text).map_err(|error| DecodeError::BadItem { item: name, error })
+/// Writes the present values as items.
+// One copy serves every message; inlined into each it would cost a copy per message.
+#[inline(never)]
+fn write_values(
+    doc: &mut DocumentWriter<'_>,
+    spec: &[ItemSpec],
+    values: &[Raw],
+) -> Result<(), WriteError> {
+    for (item, value) in spec.iter().zip(values) {
+        match (item.kind, *value) {
+            (_, None) => {}
+            (Kind::Float, Some(bits)) => doc.float_item(item.name, f32::from_bits(bits))?,
+            (Kind::Int | Kind::Byte, Some(bits)) => {
+                doc.int_item(item.name, (bits as i32).into())?
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Reads a block's items into `values`, by position in `spec`; unknown items are skipped.
+#[inline(never)]
+fn read_values(
+    items: &mut Items<'_>,
+    spec: &[ItemSpec],
+    values: &mut [Raw],
+) -> Result<(), DecodeError> {
+    for item in items {
+        let item = item?;
+        let known = spec
+            .iter()
+            .zip(values.iter_mut())
+            .find(|(s, _)| item.name.eq_ignore_ascii_case(s.name.as_bytes()));
+        if let Some((spec, value)) = known {
+            *value = Some(parse_item(&item, spec)?);
+        }
+    }
+    match spec
+        .iter()
+        .zip(values)
+        .find(|(s, v)| s.required && v.is_none())
+    {
+        Some((missing, _)) => Err(DecodeError::MissingItem(missing.name)),
+        None => Ok(()),
+    }
+}
+
+/// Parses one item's text as its spec says, naming the item on failure.
+pub(crate) fn parse_item(item: &Item<'_>, spec: &ItemSpec) -> Result<u32, DecodeError> {
+    let bad = |error| DecodeError::BadItem {
+        item: spec.name,
+        error,
+    };
+    let text = item.text.ok_or(DecodeError::ItemNotText(spec.name))?;
+    match spec.kind {
+        Kind::Float => number::parse_f32(text).map(f32::to_bits).map_err(bad),
+        Kind::Int => number::parse_int::<i32>(text)
+            .map(|v| v as u32)
+            .map_err(bad),
+        Kind::Byte => number::parse_int::<u8>(text).map(u32::from).map_err(bad),
+    }
 }
 
 /// Defines a struct whose fields are items, and its [`ItemSet`] implementation.
 ///
-/// Each field names its element, any other spellings accepted when reading, and
-/// optionally a default used when the element is absent (items added in later protocol
-/// versions); fields without a default are required.
+/// Each field names its element and optionally a default used when the element is absent
+/// (items added in later protocol versions); fields without a default are required.
 macro_rules! item_set {
     (
         $(#[$meta:meta])*
         pub struct $name:ident {
             $(
                 $(#[$fmeta:meta])*
-                pub $field:ident: $ty:ty = $wire:literal $(| $alias:literal)* $(, default $default:expr)?;
+                pub $field:ident: $ty:ty = $wire:literal $(, default $default:expr)?;
             )*
         }
     ) => {
@@ -98,45 +213,36 @@ macro_rules! item_set {
         }
 
         impl $crate::proto::message::items::ItemSet for $name {
-            fn write_items(
-                &self,
-                doc: &mut $crate::proto::xml::writer::DocumentWriter<'_>,
-            ) -> Result<(), $crate::proto::xml::writer::WriteError> {
+            const SPEC: &'static [$crate::proto::message::items::ItemSpec] = &[$(
+                $crate::proto::message::items::ItemSpec {
+                    name: $wire,
+                    kind: <$ty as $crate::proto::message::items::ItemValue>::KIND,
+                    required: item_set!(@required $($default)?),
+                },
+            )*];
+            type Values = [$crate::proto::message::items::Raw; [$($wire),*].len()];
+
+            fn to_values(&self) -> Self::Values {
                 use $crate::proto::message::items::ItemValue;
-                $( self.$field.write($wire, doc)?; )*
-                Ok(())
+                [$( self.$field.to_raw() ),*]
             }
 
-            fn read_items(
-                items: &mut $crate::proto::xml::Items<'_>,
-            ) -> Result<Self, $crate::proto::message::DecodeError> {
-                $( let mut $field: Option<$ty> = None; )*
-                for item in items {
-                    let item = item?;
-                    // Matching on text lets the compiler dispatch on length first instead of
-                    // comparing the name with every item in turn.
-                    match core::str::from_utf8(item.name).unwrap_or_default() {
-                        $( $wire $(| $alias)* => {
-                            $field = Some($crate::proto::message::items::parse_item(&item, $wire)?);
-                        } )*
-                        _ => {}
-                    }
+            fn from_values(values: Self::Values) -> Self {
+                let [$($field),*] = values;
+                Self {
+                    $( $field: $crate::proto::message::items::field(
+                        $field,
+                        // read_values has checked that required items are present.
+                        || item_set!(@default $($default)?),
+                    ), )*
                 }
-                Ok(Self {
-                    $( $field: match $field {
-                        Some(value) => value,
-                        None => item_set!(@missing $wire $(, $default)?),
-                    }, )*
-                })
             }
         }
     };
-    (@missing $wire:literal) => {
-        return Err($crate::proto::message::DecodeError::MissingItem($wire))
-    };
-    (@missing $wire:literal, $default:expr) => {
-        $default
-    };
+    (@required) => { true };
+    (@required $default:expr) => { false };
+    (@default) => { $crate::proto::message::items::ItemValue::from_raw_bits(0) };
+    (@default $default:expr) => { $default };
 }
 pub(crate) use item_set;
 
@@ -145,12 +251,14 @@ pub(crate) use item_set;
 macro_rules! coded_item_value {
     ($($ty:ty),* $(,)?) => {$(
         impl ItemValue for $ty {
-            fn parse(text: &[u8]) -> Result<Self, NumberError> {
-                number::parse_int::<i32>(text).map(<$ty>::from_raw)
+            const KIND: Kind = Kind::Int;
+
+            fn to_raw(&self) -> Raw {
+                Some(self.raw() as u32)
             }
 
-            fn write(&self, name: &'static str, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError> {
-                doc.int_item(name, i64::from(self.raw()))
+            fn from_raw_bits(bits: u32) -> Self {
+                Self::from_raw(bits as i32)
             }
         }
     )*};

@@ -14,13 +14,13 @@ pub use motion::{Light, MotionAck, MotionCommand, MotionValue, Relocalize, Reloc
 pub use nav::{CommandAck, MAX_NAV_POINTS, NavPoint, NavResult, NavTask, NavTaskState};
 pub use status::{Battery, MapImage, MotorTemperatures, Perception, RobotStatus};
 
-use crate::proto::codes::{MessageType, MotionCommandCode, RequestErrorCode};
+use crate::proto::codes::{MessageType, MotionCommandCode, MotionGait, RequestErrorCode};
 use crate::proto::time::Timestamp;
 use crate::proto::xml::number::NumberError;
 use crate::proto::xml::reader::XmlError;
 use crate::proto::xml::writer::{DocumentWriter, WriteError};
 use crate::proto::xml::{Envelope, Items, StructureError, read_document};
-use items::{ItemSet, item_set, parse_item};
+use items::{ItemSet, ItemSpec, Kind, item_set, parse_item};
 
 /// Longest body a valid request encodes to: a 1003 request with [`MAX_NAV_POINTS`]
 /// waypoints whose every number has its longest text. A receiver that accepts bodies this
@@ -395,20 +395,29 @@ impl Response {
 }
 
 fn read_motion(command: i32, items: &mut Items<'_>) -> Result<MotionCommand, DecodeError> {
+    let code = MotionCommandCode::from_raw(command);
+    // A gait number is an int (SPEC §4.5); reading it as a float would round large ones.
+    let spec = ItemSpec {
+        name: "Value",
+        kind: match code {
+            MotionCommandCode::SwitchGait => Kind::Int,
+            _ => Kind::Float,
+        },
+        required: true,
+    };
     let mut value = None;
     for item in items {
         let item = item?;
         if item.name == b"Value" {
-            value = Some(item);
+            value = Some(parse_item(&item, &spec)?);
         }
     }
-    let value = value.ok_or(DecodeError::MissingItem("Value"))?;
-    match MotionCommandCode::from_raw(command) {
-        // A gait number is an int (SPEC §4.5); reading it as a float would round large ones.
+    let bits = value.ok_or(DecodeError::MissingItem("Value"))?;
+    match code {
         MotionCommandCode::SwitchGait => {
-            Ok(MotionCommand::SwitchGait(parse_item(&value, "Value")?))
+            Ok(MotionCommand::SwitchGait(MotionGait::from_raw(bits as i32)))
         }
-        code => MotionCommand::from_parts(code, parse_item(&value, "Value")?)
+        _ => MotionCommand::from_parts(code, f32::from_bits(bits))
             .ok_or(DecodeError::UnknownCommand(command)),
     }
 }

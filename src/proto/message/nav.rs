@@ -16,7 +16,7 @@ item_set! {
         /// Target point number, echoed in the answer.
         pub value: i32 = "Value";
         /// Grid-map number, as in the robot's map.toml. `MapId` is accepted when reading.
-        pub map_id: i32 = "MapID" | "MapId";
+        pub map_id: i32 = "MapID";
         /// Target in the map frame, m.
         pub pos_x: f32 = "PosX";
         /// Target in the map frame, m.

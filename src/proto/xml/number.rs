@@ -3,29 +3,37 @@
 //! The robot writes `float` fields with up to 9 significant digits (`-0.00023393621`) and reads
 //! whatever decimal we send. core's float parser (`str::parse::<f32>`, ~18 KiB of flash for its
 //! tables) and core's float formatting (`{}` on `f32`, ~14 KiB) are far too big for the panel, so
-//! this module does both by hand with a fast path in plain `f64`/`u64` arithmetic and a small
-//! exact fallback.
+//! this module does both by hand, in integer arithmetic only: the Cortex-M4F has no
+//! double-precision FPU, and software `f64` alone would cost ~4 KiB. 64×64→128-bit products
+//! compile to a few `UMULL`/`UMLAL`, and no 64-bit division is used anywhere (it would pull in
+//! a ~1 KiB library routine).
+//!
+//! # Approximation, then exactness where it matters
+//!
+//! Both directions first compute with `Approx`, a 64-bit significand and binary exponent, and
+//! `10^e` from a 14-entry table of `5^±2^i` by binary powering: relative error below `2^-59`.
+//! Rounding to `f32` only changes at the *midpoints* between adjacent floats, and shortest
+//! decimal output only at the ends of a float's rounding interval and at ties between two
+//! candidates; when the approximation is too close to one of those for its error bound, the
+//! question is settled exactly by comparing `n·10^e` with `k·2^e2` as integers of at most 192
+//! bits (`compare`). That happens for about one input in 2^30, and for exact ties.
 //!
 //! # Parsing
 //!
-//! The text is reduced to `n·10^e` with up to 19 significant digits in `n: u64`. An `f64`
-//! approximation of `n·10^e` takes at most four rounding steps, so it is within `2^-51` (relative)
-//! of the true value: unless it lies within that error of a *midpoint* between two adjacent
-//! `f32`s, rounding it to `f32` gives the correctly rounded result. Only inputs that close to a
-//! midpoint (exact ties such as `"2097152.25"`, or 2^-45-close ones) go to the exact check,
-//! which compares `n·10^e` with the midpoint `k·2^e2` as integers in a 192-bit [`Big`].
+//! The text is reduced to `n·10^e` with up to 19 significant digits in `n: u64`; digits past the
+//! 19th only set a sticky bit. `n·10^e` is approximated, rounded to `f32` with round-half-even,
+//! and refined exactly when it lies near a midpoint.
 //!
 //! # Formatting
 //!
 //! `write_f32` prints the shortest decimal that reads back as the same `f32` (ties between two
 //! equally short, equally close candidates go to the larger magnitude), without exponent, exactly
 //! as `format!("{}", x)` does. With `s` chosen so that `y = x·10^s` lies in `[10^8, 10^9)`, every
-//! shortest candidate is an integer `y`-unit: the float's rounding interval, whose half-width is
-//! at least ~1.49 units, is reduced to the integers `[low, high]` it contains, and the answer is
-//! the one among them with the most trailing zeros, nearest to `y`. For `10^-6 <= x < 10^9` (all
-//! values the robot sends in practice) `y` and the interval are exact in 32.32 fixed point in a
-//! `u64`. Elsewhere they come from `f64` arithmetic accurate to `2^-19` units, and only an
-//! interval end or a tie within `2^-16` of an integer is settled with the exact comparison.
+//! shortest candidate is an integer number of `y`-units, because the float's rounding interval is
+//! at least ~2.9 units wide: the interval is reduced to the integers `low..=high` it contains,
+//! and the answer is the one with the most trailing zeros, nearest to `y`. `y` and the interval
+//! are held in 32.32 fixed point; for `10^-6 <= x < 10^9` (all values the panel sends in
+//! practice) they are exact there, so no approximation is involved at all.
 //!
 //! Neither direction allocates, uses `unsafe`, or can panic; all buffers are fixed-size arrays.
 
@@ -99,15 +107,23 @@ pub fn write_i64(value: i64, out: &mut [u8; I64_TEXT_MAX]) -> usize {
     let negative = value < 0;
     let mut magnitude = value.unsigned_abs();
     let len = usize::from(negative) + decimal_len(magnitude);
-    // Digits are produced least significant first, so fill the text from its end.
+    // Digits come least significant first, so fill the text from its end.
     for slot in out.iter_mut().take(len).skip(usize::from(negative)).rev() {
-        *slot = ascii_digit(magnitude % 10);
-        magnitude /= 10;
+        let quotient = div10(magnitude);
+        // The remainder is below 10.
+        *slot = b'0' + (magnitude - quotient * 10) as u8;
+        magnitude = quotient;
     }
     if negative && let Some(first) = out.first_mut() {
         *first = b'-';
     }
     len
+}
+
+/// `v / 10` by multiplication: 64-bit division is a library call on the Cortex-M.
+fn div10(v: u64) -> u64 {
+    // ceil(2^67 / 10); exact for every u64 (the standard reciprocal for this divisor).
+    ((u128::from(v) * 0xcccc_cccc_cccc_cccd) >> 67) as u64
 }
 
 /// Splits off one leading '+' or '-'; `Empty` for empty text.
@@ -126,13 +142,7 @@ fn digit(c: u8) -> Option<u8> {
     (d < 10).then_some(d)
 }
 
-/// The ASCII character of `d % 10`.
-fn ascii_digit(d: u64) -> u8 {
-    // `d % 10 < 10`, so the narrowing keeps the value.
-    b'0' + (d % 10) as u8
-}
-
-/// Number of decimal digits of `n` (1 for zero); multiplications only, no 64-bit division.
+/// Number of decimal digits of `n` (1 for zero), by multiplications only.
 fn decimal_len(n: u64) -> usize {
     let mut len = 1;
     let mut bound: u64 = 10;
@@ -144,41 +154,18 @@ fn decimal_len(n: u64) -> usize {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Shared float machinery
+// Floats as integers
 // ---------------------------------------------------------------------------------------------
 
 /// Bit pattern of +infinity; as a [`Binary`] it decodes to 2^128, the value just above `f32::MAX`.
 const INF_BITS: u32 = 0x7f80_0000;
 
-/// 2^128: every decimal at least this large rounds to infinity.
-const TWO_POW_128: f64 = 340_282_366_920_938_463_463_374_607_431_768_211_456.0;
+/// 5^k for `k <= 27` (a few multiplications are cheaper than a table in flash).
+fn pow5(k: u32) -> u64 {
+    (0..k).fold(1, |p: u64, _| p * 5)
+}
 
-/// Exact `f64` powers of ten (10^22 is the last one an `f64` holds exactly).
-const POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
-    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-];
-
-/// Powers of five; 5^13 is the largest that fits a `u32` limb multiplier.
-const POW5: [u64; 15] = [
-    1,
-    5,
-    25,
-    125,
-    625,
-    3_125,
-    15_625,
-    78_125,
-    390_625,
-    1_953_125,
-    9_765_625,
-    48_828_125,
-    244_140_625,
-    1_220_703_125,
-    6_103_515_625,
-];
-
-/// A non-negative `f32` (or the infinity pattern, as 2^128) written as `m·2^e` with `m < 2^24`.
+/// A non-negative `f32` (or the infinity pattern, as 2^128) as `m·2^e` with `m < 2^24`.
 #[derive(Clone, Copy)]
 struct Binary {
     m: u32,
@@ -190,12 +177,12 @@ impl Binary {
     fn decode(bits: u32) -> Self {
         let biased = (bits >> 23) & 0xff;
         let fraction = bits & 0x007f_ffff;
-        // `biased <= 255`, so the conversion to i32 is lossless.
         match biased {
             0 => Binary {
                 m: fraction,
                 e: -149,
             },
+            // biased <= 255: the conversion is lossless.
             _ => Binary {
                 m: fraction | 1 << 23,
                 e: biased as i32 - 150,
@@ -208,26 +195,6 @@ impl Binary {
     fn narrow_below(self) -> bool {
         self.m == 1 << 23 && self.e > -149
     }
-}
-
-/// `v·10^e` in at most three rounding steps (for `|e| <= 66`), each with relative error `2^-53`.
-fn scale(mut v: f64, mut e: i32) -> f64 {
-    while e > 22 {
-        v *= 1e22;
-        e -= 22;
-    }
-    while e < -22 {
-        v /= 1e22;
-        e += 22;
-    }
-    let p = POW10.get(e.unsigned_abs() as usize).copied().unwrap_or(1.0);
-    if e >= 0 { v * p } else { v / p }
-}
-
-/// 2^e as an `f64`, for `-1022 <= e <= 1023`.
-fn pow2(e: i32) -> f64 {
-    let biased = (e + 1023).clamp(1, 2046) as u64;
-    f64::from_bits(biased << 52)
 }
 
 /// Where the decimal `n·10^e10` (plus a tiny amount if `sticky`) rounds, relative to the
@@ -271,8 +238,8 @@ fn round_check(n: u64, e10: i32, sticky: bool, bits: u32) -> Ordering {
 /// Both sides are brought to integers by moving the power of five to the side where it
 /// multiplies: `n·5^e10` vs `k` (for `e10 >= 0`) or `n` vs `k·5^-e10`. Callers keep
 /// `-64 <= e10 <= 38`, `n < 2^64` and `k < 2^26`, so neither side exceeds
-/// `max(2^64·5^38, 2^26·5^64) < 2^175` bits before the shift, and
-/// [`Big::compare_shifted`] never grows a number past the larger of the two: 192 bits suffice.
+/// `max(2^64·5^38, 2^26·5^64) < 2^175` before the shift, and [`Big::compare_shifted`] never
+/// grows a number past the larger of the two: 192 bits suffice.
 fn compare(n: u64, e10: i32, k: u32, e2: i32) -> Ordering {
     let mut decimal = Big::from_u64(n);
     let mut binary = Big::from_u64(u64::from(k));
@@ -311,9 +278,9 @@ impl Big {
     /// `self *= 5^e`.
     fn mul_pow5(&mut self, mut e: u32) {
         while e > 0 {
+            // 5^13 is the largest power of five below 2^32.
             let step = e.min(13);
-            let factor = POW5.get(step as usize).copied().unwrap_or(1);
-            self.mul_small(factor as u32);
+            self.mul_small(pow5(step) as u32);
             e -= step;
         }
     }
@@ -369,6 +336,83 @@ impl Big {
     }
 }
 
+/// A positive number `m·2^e` with `2^63 <= m < 2^64`, approximating some exact value.
+#[derive(Clone, Copy)]
+struct Approx {
+    m: u64,
+    e: i32,
+}
+
+/// `5^(2^i)` for `i = 0..7` as `(m, e)` of an [`Approx`], rounded to nearest (exact up to
+/// `5^16`).
+const POW5_UP: [(u64, i32); 7] = [
+    (0xa000_0000_0000_0000, -61), // 5^1
+    (0xc800_0000_0000_0000, -59), // 5^2
+    (0x9c40_0000_0000_0000, -54), // 5^4
+    (0xbebc_2000_0000_0000, -45), // 5^8
+    (0x8e1b_c9bf_0400_0000, -26), // 5^16
+    (0x9dc5_ada8_2b70_b59e, 11),  // 5^32
+    (0xc278_1f49_ffcf_a6d5, 85),  // 5^64
+];
+
+/// `5^-(2^i)` for `i = 0..7` as `(m, e)` of an [`Approx`], rounded to nearest.
+const POW5_DOWN: [(u64, i32); 7] = [
+    (0xcccc_cccc_cccc_cccd, -66),  // 5^-1
+    (0xa3d7_0a3d_70a3_d70a, -68),  // 5^-2
+    (0xd1b7_1758_e219_652c, -73),  // 5^-4
+    (0xabcc_7711_8461_cefd, -82),  // 5^-8
+    (0xe695_94be_c44d_e15b, -101), // 5^-16
+    (0xcfb1_1ead_4539_94ba, -138), // 5^-32
+    (0xa87f_ea27_a539_e9a5, -212), // 5^-64
+];
+
+impl Approx {
+    /// `v·2^e`, exactly (`v > 0`).
+    fn new(v: u64, e: i32) -> Self {
+        let shift = v.leading_zeros();
+        Approx {
+            m: v.checked_shl(shift).unwrap_or(0),
+            e: e - shift as i32,
+        }
+    }
+
+    /// The product, truncated to 64 bits: adds a relative error below `2^-63`.
+    fn mul(self, other: Approx) -> Self {
+        // Both significands are in [2^63, 2^64), so the product is in [2^126, 2^128).
+        let product = u128::from(self.m) * u128::from(other.m);
+        let top = (product >> 127) as u32;
+        Approx {
+            m: (product >> (63 + top)) as u64,
+            e: self.e + other.e + 63 + top as i32,
+        }
+    }
+
+    /// `10^e` for `|e| < 128`: at most seven table entries and six truncating products (the
+    /// first is exact), so within `7·2^-64 + 6·2^-63 = 19·2^-64` (relative).
+    fn pow10(e: i32) -> Self {
+        let table = if e >= 0 { &POW5_UP } else { &POW5_DOWN };
+        // 2^e times the powers of five picked by the bits of |e|.
+        let mut power = Approx {
+            m: 1 << 63,
+            e: e - 63,
+        };
+        let mut rest = e.unsigned_abs();
+        for &(m, e) in table {
+            if rest & 1 == 1 {
+                power = power.mul(Approx { m, e });
+            }
+            rest >>= 1;
+        }
+        power
+    }
+
+    /// The value times 2^32, truncated (for values below 2^31).
+    fn fixed32(self) -> u64 {
+        let shift = (-(self.e + 32)).clamp(0, 64) as u32;
+        self.m.checked_shr(shift).unwrap_or(0)
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Parsing floats
 // ---------------------------------------------------------------------------------------------
@@ -378,10 +422,11 @@ impl Big {
 /// No surrounding whitespace, no "inf"/"nan", no hex; ".5" and "5." are accepted (C `strtod`
 /// does). The result is correctly rounded (round-half-even) to `f32` for inputs of up to 19
 /// significant digits. Digits beyond the 19th only set a sticky bit ("something non-zero
-/// follows"), so a longer input that lies within `10^-18` (relative) of the midpoint between two
-/// floats may round to the wrong neighbour: an error of at most one unit in the last place, for
-/// inputs no `float` printer produces. Values that round above `f32::MAX` are
-/// [`NumberError::OutOfRange`]; values too small for the smallest subnormal become ±0.
+/// follows"), so a longer input whose first 19 digits lie within `10^-18` (relative) below the
+/// midpoint between two floats may round to the lower neighbour instead of the upper: an error
+/// of one unit in the last place, for inputs no `float` printer produces. Values that round
+/// above `f32::MAX` are [`NumberError::OutOfRange`]; values too small for the smallest
+/// subnormal become ±0.
 pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
     let decimal = Decimal::scan(text)?;
     let magnitude = decimal.magnitude()?;
@@ -399,14 +444,18 @@ const MAX_DIGITS: u32 = 19;
 /// cannot overflow (additions saturate in any case).
 const EXPONENT_CAP: i32 = 1 << 30;
 
-/// Relative distance to a midpoint below which the `f64` estimate is not trusted. The estimate
-/// is within `4·2^-53` of the input; `2^-45` leaves a wide safety factor.
-const MIDPOINT_MARGIN: f64 = 1.0 / 35_184_372_088_832.0; // 2^-45
+/// log2 of the distance to a midpoint, in units of the approximation's last bit, within which
+/// the rounding is settled exactly. The approximation of `n·10^e` is within `21·2^-64`
+/// (relative: [`Approx::pow10`] and one more product), plus `10^-18` for dropped digits; with
+/// the significand below 2^64 that is under 40 units, and 2^7 leaves a safety factor of three.
+const MIDPOINT_MARGIN_BITS: u32 = 7;
 
 /// A decimal `mantissa·10^exponent`, plus `sticky` if non-zero digits were dropped.
 struct Decimal {
     negative: bool,
     mantissa: u64,
+    /// Number of decimal digits of `mantissa` (it has no leading zeros).
+    digits: u32,
     exponent: i32,
     sticky: bool,
 }
@@ -415,38 +464,39 @@ impl Decimal {
     /// Reads the syntax of a float: sign, digits and '.', optional exponent.
     fn scan(text: &[u8]) -> Result<Self, NumberError> {
         let (negative, body) = split_sign(text)?;
-        let mut parts = body.splitn(2, |&c| matches!(c, b'e' | b'E'));
-        let significand = parts.next().unwrap_or_default();
-        let written_exponent = match parts.next() {
-            Some(exponent) => scan_exponent(exponent)?,
-            None => 0,
-        };
-
         let mut decimal = Decimal {
             negative,
             mantissa: 0,
+            digits: 0,
             exponent: 0,
             sticky: false,
         };
-        let mut kept = 0;
+        let mut written_exponent = 0;
         let mut any_digit = false;
         let mut after_point = false;
-        for &c in significand {
-            if c == b'.' && !after_point {
-                after_point = true;
-                continue;
-            }
-            let d = digit(c).ok_or(NumberError::Invalid)?;
+        for (i, &c) in body.iter().enumerate() {
+            let d = match c {
+                b'0'..=b'9' => c - b'0',
+                b'.' if !after_point => {
+                    after_point = true;
+                    continue;
+                }
+                b'e' | b'E' => {
+                    written_exponent = scan_exponent(body.get(i + 1..).unwrap_or_default())?;
+                    break;
+                }
+                _ => return Err(NumberError::Invalid),
+            };
             any_digit = true;
             if decimal.mantissa == 0 && d == 0 {
                 // A leading zero is not significant; after the point it still moves the scale.
                 if after_point {
                     decimal.exponent = decimal.exponent.saturating_sub(1);
                 }
-            } else if kept < MAX_DIGITS {
+            } else if decimal.digits < MAX_DIGITS {
                 // mantissa < 10^18 here, so this stays below 10^19 < 2^64.
                 decimal.mantissa = decimal.mantissa * 10 + u64::from(d);
-                kept += 1;
+                decimal.digits += 1;
                 if after_point {
                     decimal.exponent = decimal.exponent.saturating_sub(1);
                 }
@@ -470,7 +520,7 @@ impl Decimal {
             return Ok(0.0);
         }
         // The value lies in [10^(digits-1+exponent), 10^(digits+exponent)).
-        let digits = decimal_len(self.mantissa) as i32;
+        let digits = self.digits as i32;
         if self.exponent > 39 - digits {
             // At least 10^39 > f32::MAX.
             return Err(NumberError::OutOfRange);
@@ -480,12 +530,9 @@ impl Decimal {
             return Ok(0.0);
         }
         // Now -64 <= exponent <= 38, the range `compare` is sized for.
-        let approx = scale(self.mantissa as f64, self.exponent);
-        if approx >= TWO_POW_128 {
-            return Err(NumberError::OutOfRange);
-        }
-        let guess = (approx as f32).to_bits();
-        let bits = if near_midpoint(approx, guess) {
+        let approx = Approx::new(self.mantissa, 0).mul(Approx::pow10(self.exponent));
+        let (guess, near_midpoint) = round_to_f32(approx);
+        let bits = if near_midpoint {
             self.refine(guess)
         } else {
             guess
@@ -527,25 +574,31 @@ fn scan_exponent(text: &[u8]) -> Result<i32, NumberError> {
     Ok(if negative { -value } else { value })
 }
 
-/// Whether `approx` (an estimate of the input within `4·2^-53`) is so close to the midpoint
-/// between `guess` (its rounding to `f32`) and the neighbour on its side that the estimate's
-/// error could put the input on the other side.
-fn near_midpoint(approx: f64, guess: u32) -> bool {
-    let value = |bits: u32| match bits {
-        INF_BITS => TWO_POW_128,
-        _ => f64::from(f32::from_bits(bits)),
+/// Rounds `v` to the bits of an `f32` (`INF_BITS` on overflow), round-half-even, and tells
+/// whether `v` is within [`MIDPOINT_MARGIN_BITS`] of a midpoint, where its error could matter.
+fn round_to_f32(v: Approx) -> (u32, bool) {
+    // Keep 24 bits below the leading one, or fewer where subnormals have a fixed last bit.
+    let lsb = (v.e + 63 - 23).max(-149);
+    let drop = lsb - v.e; // at least 40
+    if drop > 64 {
+        // Below half the smallest subnormal, but perhaps by less than the error: let the exact
+        // check decide.
+        return (0, true);
+    }
+    // `rest`: the dropped bits, left-aligned; exactly 2^63 is the midpoint.
+    let (kept, rest) = match v.m.checked_shr(drop as u32) {
+        Some(kept) => (kept, v.m << (64 - drop)),
+        None => (0, v.m),
     };
-    let here = value(guess);
-    let neighbour = if approx > here {
-        guess + 1
-    } else {
-        // approx > 0, so approx <= here implies guess > 0.
-        guess.saturating_sub(1)
-    };
-    // Two adjacent floats, their sum and its half are exact in f64; so is the difference of
-    // two f64s within a factor of two (Sterbenz).
-    let midpoint = (here + value(neighbour)) * 0.5;
-    (approx - midpoint).abs() <= approx * MIDPOINT_MARGIN
+    const HALF: u64 = 1 << 63;
+    let margin = 1u64 << (64 - drop + MIDPOINT_MARGIN_BITS as i32);
+    let near = rest.abs_diff(HALF) <= margin;
+    let round_up = rest > HALF || (rest == HALF && kept % 2 == 1);
+    // lsb + 149 is the biased exponent minus one for normals, 0 for subnormals; a carry out of
+    // the significand steps the exponent as it should (and reaches INF_BITS on overflow).
+    let exponent = ((lsb + 149) as u32).min(255);
+    let bits = (exponent << 23) + kept as u32 + u32::from(round_up);
+    (bits.min(INF_BITS), near)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -563,119 +616,97 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
         return Err(NumberError::NotFinite);
     }
     let bits = value.to_bits() & !(1 << 31);
-    let (digits, exponent) = if bits == 0 { (0, 0) } else { shortest(bits) };
+    let (digits, exponent) = if bits == 0 {
+        (0, 0)
+    } else {
+        Window::new(bits).pick()
+    };
     Ok(render(value.is_sign_negative(), digits, exponent, out))
 }
 
-/// Shortest digits `d` and exponent `k` with `d·10^k` reading back as the positive float `bits`.
-fn shortest(bits: u32) -> (u32, i32) {
-    let x = Binary::decode(bits);
-    // floor(log2 x) + 1, and floor of that times log10(2) (exact for |v| < 1650 with this
-    // constant): 10^estimate <= 10·x, so the decimal exponent of x is `estimate` or one less.
-    let bit_top = x.e + (32 - x.m.leading_zeros()) as i32;
-    let estimate = (bit_top * 78_913) >> 18;
-    let s = 8 - estimate;
-    let window = Window::exact(bits, x, s).unwrap_or_else(|| Window::approximate(bits, x, s));
-    window.pick(x)
-}
+/// How close (in 32.32 units: `2^-16`) an approximate position may come to an integer or a tie
+/// before it is checked exactly. `y` is within `19·2^-64 + 2^-63` (relative) of the truth, i.e.
+/// below 2^62 by less than 7 units, and the interval ends within 2^5 units (after `×10`).
+const TIE_MARGIN: u64 = 1 << 16;
 
-/// Half-width (in `y`-units) below which an inexact position is checked exactly; the `f64`
-/// arithmetic of [`Window::approximate`] is accurate to about `2^-20` units.
-const TIE_MARGIN: f64 = 1.0 / 65_536.0;
-
-/// `y = x·10^scale`, in `[10^8, 10^9)`, either exactly in 32.32 fixed point or as an `f64`.
-#[derive(Clone, Copy)]
-enum Scaled {
-    Exact(u64),
-    Approx(f64),
-}
-
-/// The integers `low..=high` (in units of `10^-scale`) that read back as `x`, and `x` itself.
+/// The integers `low..=high` (in units of `10^-scale`) that read back as the float `bits`, and
+/// `y`, the float in those units, in 32.32 fixed point.
 struct Window {
+    bits: u32,
+    x: Binary,
+    scale: i32,
+    y: u64,
+    /// Whether `y` and the interval ends are exact (else within 2^5 units).
+    exact: bool,
     low: u32,
     high: u32,
-    scale: i32,
-    y: Scaled,
-    bits: u32,
 }
 
 impl Window {
-    /// The window in 32.32 fixed point, if `y` and both interval ends are exact there: for
-    /// `0 <= s <= 14` and a quarter-step `5^s·2^(e+s-2)` of at least `2^-32`, i.e. roughly
-    /// `10^-6 <= x < 10^9`.
-    fn exact(bits: u32, x: Binary, s: i32) -> Option<Self> {
-        let p5 = POW5.get(usize::try_from(s).ok()?).copied()?;
-        let quarter = u32::try_from(x.e + s + 30).ok()?;
-        // m·5^s < 2^24·5^14 < 2^57; y < 10^9 keeps y·2^32 below 2^62, and `shl` checks anyway.
-        let mut y = shl(u64::from(x.m) * p5, quarter + 2)?;
-        let mut above = shl(p5, quarter + 1)?;
-        let mut below = if x.narrow_below() {
-            p5 << quarter
-        } else {
-            above
+    /// The window of the positive float `bits`, with `y` in `[10^8, 10^9)`.
+    fn new(bits: u32) -> Self {
+        let x = Binary::decode(bits);
+        // floor(log2 x) + 1, and the floor of that times log10(2) (exact for |v| < 1650 with
+        // this constant): the decimal exponent of x is `estimate` or one less.
+        let bit_top = x.e + (32 - x.m.leading_zeros()) as i32;
+        let estimate = (bit_top * 78_913) >> 18;
+        let mut scale = 8 - estimate;
+        // `above`: the half-step to the next float up, in the same units as `y`.
+        let (mut y, mut above, exact) = match exact_fixed(x, scale) {
+            Some((y, above)) => (y, above, true),
+            None => {
+                let power = Approx::pow10(scale);
+                let y = Approx::new(u64::from(x.m), x.e).mul(power);
+                let above = Approx::new(1, x.e - 1).mul(power);
+                (y.fixed32(), above.fixed32(), false)
+            }
         };
-        let mut scale = s;
         if y < 100_000_000 << 32 {
-            // The estimate was one too high; y < 10^8·2^32 < 2^59 so this cannot overflow.
+            // The estimate was one too high; y < 10^8·2^32 < 2^59, so nothing overflows.
             y *= 10;
             above *= 10;
-            below *= 10;
             scale += 1;
         }
-        let (lo, hi) = (y - below, y + above);
-        const FRACTION: u64 = (1 << 32) - 1;
-        // Ends belong to the interval when m is even (the reader rounds ties to even).
-        let (low, high) = if x.m.is_multiple_of(2) {
-            ((lo + FRACTION) >> 32, hi >> 32)
-        } else {
-            ((lo >> 32) + 1, (hi - 1) >> 32)
-        };
-        Some(Window {
-            low: low as u32,
-            high: high as u32,
-            scale,
-            y: Scaled::Exact(y),
-            bits,
-        })
-    }
-
-    /// The window from `f64` arithmetic, with ends near an integer settled exactly.
-    fn approximate(bits: u32, x: Binary, s: i32) -> Self {
-        // At most 3 + 1 roundings: |error| <= 5·2^-53·2^30 < 2^-20 units.
-        let mut y = scale(f64::from(f32::from_bits(bits)), s);
-        let mut above = scale(pow2(x.e - 1), s);
-        let mut scale_ = s;
-        if y < 1e8 {
-            y *= 10.0;
-            above *= 10.0;
-            scale_ += 1;
-        }
-        let below = if x.narrow_below() { above * 0.5 } else { above };
+        // `above` is even when exact (a power of two of at least 2 times 5^scale).
+        let below = if x.narrow_below() { above / 2 } else { above };
         let mut window = Window {
+            bits,
+            x,
+            scale,
+            y,
+            exact,
             low: 0,
             high: 0,
-            scale: scale_,
-            y: Scaled::Approx(y),
-            bits,
         };
         window.low = window.end(y - below, true);
         window.high = window.end(y + above, false);
         window
     }
 
-    /// The first (`lower`) or last integer inside the interval whose end is near `end`.
-    fn end(&self, end: f64, lower: bool) -> u32 {
-        let floor = end as u32;
-        let fraction = end - f64::from(floor);
-        if fraction > TIE_MARGIN && fraction < 1.0 - TIE_MARGIN {
-            return if lower { floor + 1 } else { floor };
+    /// The first (`lower`) or last integer inside the interval that ends at `end`.
+    fn end(&self, end: u64, lower: bool) -> u32 {
+        let floor = (end >> 32) as u32;
+        let fraction = end as u32;
+        let margin = if self.exact { 0 } else { TIE_MARGIN as u32 };
+        if fraction > margin && fraction.wrapping_neg() > margin {
+            // Clearly between two integers.
+            return if lower {
+                floor.saturating_add(1)
+            } else {
+                floor
+            };
         }
-        let nearest = if fraction <= TIE_MARGIN {
+        let nearest = if fraction <= margin {
             floor
         } else {
-            floor + 1
+            floor.saturating_add(1)
         };
-        let inside = self.reads_back(nearest);
+        // Ends belong to the interval when m is even (the reader rounds ties to even).
+        let inside = if self.exact {
+            self.x.m.is_multiple_of(2)
+        } else {
+            self.reads_back(nearest)
+        };
         match (lower, inside) {
             (_, true) => nearest,
             (true, false) => nearest.saturating_add(1),
@@ -690,28 +721,24 @@ impl Window {
 
     /// The shortest integer in the window, nearest to `y`, ties to the larger one; returned as
     /// digits and decimal exponent.
-    fn pick(&self, x: Binary) -> (u32, i32) {
-        // The largest power of ten with a multiple inside the window.
+    fn pick(&self) -> (u32, i32) {
+        // The largest power of ten with a multiple inside the window. (The tests are
+        // independent of each other, which keeps this quick.)
         let mut step = 1u32;
         let mut zeros = 0;
         while let Some(next) = step.checked_mul(10) {
-            let top = self.high.checked_div(next).unwrap_or(0) * next;
-            if top < self.low {
+            if self.high.checked_div(next).unwrap_or(0) * next < self.low {
                 break;
             }
             step = next;
             zeros += 1;
         }
         // The nearest multiple of `step` is one of the two around y.
-        let floor = match self.y {
-            Scaled::Exact(y) => (y >> 32) as u32,
-            Scaled::Approx(y) => y as u32,
-        };
-        let down = floor.checked_div(step).unwrap_or(0) * step;
+        let down = ((self.y >> 32) as u32).checked_div(step).unwrap_or(0) * step;
         let up = down.saturating_add(step);
         let inside = |c: u32| (self.low..=self.high).contains(&c);
         let chosen = match (inside(down), inside(up)) {
-            (true, true) if self.up_is_nearer(down, step, x) => up,
+            (true, true) if self.up_is_nearer(down, step) => up,
             (true, _) => down,
             _ => up,
         };
@@ -719,21 +746,29 @@ impl Window {
     }
 
     /// Whether `y >= down + step/2`.
-    fn up_is_nearer(&self, down: u32, step: u32, x: Binary) -> bool {
-        // 2·down + step < 2^33: below 2^32 units each.
+    fn up_is_nearer(&self, down: u32, step: u32) -> bool {
+        // Both below 2^32, so twice their midpoint is below 2^33.
         let twice_mid = 2 * u64::from(down) + u64::from(step);
-        match self.y {
-            Scaled::Exact(y) => y >= twice_mid << 31,
-            Scaled::Approx(y) => {
-                let distance = y - twice_mid as f64 * 0.5;
-                if distance.abs() > TIE_MARGIN {
-                    return distance > 0.0;
-                }
-                // mid = twice_mid/2·10^-scale = twice_mid·5·10^(-scale-1).
-                compare(twice_mid * 5, -self.scale - 1, x.m, x.e) != Ordering::Greater
-            }
+        let mid = twice_mid << 31;
+        if self.exact || self.y.abs_diff(mid) > TIE_MARGIN {
+            return self.y >= mid;
         }
+        // mid·10^-scale = twice_mid·5·10^(-scale-1).
+        compare(twice_mid * 5, -self.scale - 1, self.x.m, self.x.e) != Ordering::Greater
     }
+}
+
+/// `y = x·10^s` and the half-step above it, times 2^32, if those are integers below 2^63: for
+/// `0 <= s <= 14` and a quarter-step `5^s·2^(e+s-2)` of at least `2^-32`, i.e. roughly
+/// `10^-6 <= x < 10^9`.
+fn exact_fixed(x: Binary, s: i32) -> Option<(u64, u64)> {
+    let s = u32::try_from(s).ok().filter(|&s| s <= 14)?;
+    let p5 = pow5(s);
+    let quarter = u32::try_from(x.e + s as i32 + 30).ok()?;
+    // m·5^s < 2^24·5^14 < 2^57; `shl` refuses to lose bits.
+    let y = shl(u64::from(x.m) * p5, quarter + 2)?;
+    let above = shl(p5, quarter + 1)?;
+    Some((y, above))
 }
 
 /// `v << n` if no bit is lost and the result stays below 2^63.

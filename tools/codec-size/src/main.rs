@@ -1,7 +1,10 @@
-//! A bare Cortex-M binary that encodes and decodes every message, so that its size minus
-//! the size of the same binary without the codec is what the codec costs in flash.
+//! A bare Cortex-M binary that runs the protocol codec, so that its size minus the size of
+//! the same binary without the codec is what the codec costs in flash.
 //!
-//! Inputs come from addresses the optimiser cannot see through, so nothing is folded away.
+//! Feature `codec` links what the panel needs: framing, encoding every request and
+//! decoding every response. Feature `robot-side` adds the other direction (decoding every
+//! request, encoding every response), as the simulator uses it. Inputs come from places
+//! the optimiser cannot see through, so no variant is folded away.
 #![no_std]
 #![no_main]
 
@@ -17,21 +20,39 @@ fn exercise(input: &[u8], out: &mut [u8]) -> usize {
     let mut decoder = FrameDecoder::<1024>::new();
     decoder.feed(input);
     while let Some(Ok(f)) = decoder.decode() {
-        let asdu = f.asdu;
-        if let Ok(request) = Request::decode(asdu) {
-            total += request.message.encode(&Timestamp::ZERO, out).unwrap_or(0);
+        if let Ok(response) = Response::decode(f.asdu) {
+            total += response.time.plus_seconds(1).second as usize;
+            black_box(response.message);
         }
-        if let Ok(response) = Response::decode(asdu) {
-            let time = response.time.plus_seconds(1);
-            total += response.message.encode(&time, out).unwrap_or(0);
+        #[cfg(feature = "robot-side")]
+        if let Ok(request) = Request::decode(f.asdu) {
+            black_box(request.message);
         }
     }
-    total + frame::encode(out, 1, input).unwrap_or(0)
+    let request: Request = black_box(Request::Status);
+    total += frame::encode_with(out, black_box(7), |body| {
+        request
+            .encode(&Timestamp::ZERO, body)
+            .map_err(|_| frame::EncodeError::BufferTooSmall)
+    })
+    .unwrap_or(0);
+    #[cfg(feature = "robot-side")]
+    {
+        let response: Response = black_box(Response::Perception(
+            x30_panel::proto::message::Perception {
+                obs_state: x30_panel::proto::codes::ObsState::Clear,
+            },
+        ));
+        total += response.encode(&Timestamp::ZERO, out).unwrap_or(0);
+    }
+    total
 }
 
 #[cfg(not(feature = "codec"))]
 fn exercise(input: &[u8], out: &mut [u8]) -> usize {
-    out.first_mut().map(|b| *b = input.len() as u8);
+    if let Some(b) = out.first_mut() {
+        *b = input.len() as u8;
+    }
     input.len()
 }
 

@@ -1,0 +1,540 @@
+//! Number text: `write_f32`/`parse_f32` against std's `{}` and `str::parse` as oracles, and the
+//! integer codec.
+
+use proptest::prelude::*;
+use x30_panel::proto::xml::number::{
+    F32_TEXT_MAX, I64_TEXT_MAX, NumberError, parse_f32, parse_i64, parse_int, write_f32, write_i64,
+};
+
+/// Our text for a finite float.
+fn ours(x: f32) -> String {
+    let mut out = [0u8; F32_TEXT_MAX];
+    let len = write_f32(x, &mut out).expect("finite values are written");
+    String::from_utf8(out[..len].to_vec()).expect("ASCII output")
+}
+
+/// Asserts both directions against std for one finite float.
+fn check_float(x: f32) {
+    let expected = format!("{x}");
+    assert_eq!(ours(x), expected, "write_f32 of bits {:#010x}", x.to_bits());
+    let back = parse_f32(expected.as_bytes());
+    assert_eq!(
+        back.map(f32::to_bits),
+        Ok(x.to_bits()),
+        "parse_f32({expected:?})"
+    );
+}
+
+/// Asserts `parse_f32` agrees with std on `text` (std's infinity is our `OutOfRange`).
+fn check_parse(text: &str) {
+    let expected = match text.parse::<f32>() {
+        Ok(v) if v.is_infinite() => Err(NumberError::OutOfRange),
+        Ok(v) => Ok(v.to_bits()),
+        Err(e) => panic!("oracle rejected {text:?}: {e}"),
+    };
+    assert_eq!(
+        parse_f32(text.as_bytes()).map(f32::to_bits),
+        expected,
+        "parse_f32({text:?})"
+    );
+}
+
+/// The next float away from zero and towards zero, for positive finite `x`.
+fn neighbours(x: f32) -> [f32; 2] {
+    [
+        f32::from_bits(x.to_bits() + 1),
+        f32::from_bits(x.to_bits().saturating_sub(1)),
+    ]
+}
+
+#[test]
+fn special_values_match_std() {
+    for x in [
+        0.0,
+        -0.0,
+        1.0,
+        -1.0,
+        0.5,
+        12.5,
+        0.35,
+        1000.0,
+        -0.000_233_936_21,
+        f32::MAX,
+        -f32::MAX,
+        f32::MIN_POSITIVE,
+        f32::from_bits(1),
+        -f32::from_bits(1),
+        f32::from_bits(0x007f_ffff),
+        f32::EPSILON,
+        16_777_216.0,
+        16_777_217.0,
+        // 2097152.25 and .75 (exact; a literal would trip clippy::excessive_precision).
+        2_097_152.0 + 0.25,
+        2_097_152.0 + 0.75,
+        1e30,
+        0.1,
+        0.2,
+        0.3,
+        1e-6,
+        1e-5,
+        1e-4,
+        1e8,
+        1e9,
+        1e10,
+    ] {
+        check_float(x);
+    }
+    assert_eq!(ours(-0.0), "-0");
+    assert_eq!(ours(0.0), "0");
+    assert_eq!(ours(1.0), "1");
+    assert_eq!(ours(-0.000_233_936_21), "-0.00023393621");
+    assert_eq!(
+        ours(2_097_152.0 + 0.25),
+        "2097152.3",
+        "ties between equally short go up"
+    );
+}
+
+#[test]
+fn longest_text_is_f32_text_max() {
+    // "-0." followed by 44 zeros and "1".
+    assert_eq!(ours(-f32::from_bits(1)).len(), F32_TEXT_MAX);
+    assert_eq!(ours(-f32::MAX).len(), 40);
+}
+
+#[test]
+fn powers_of_two_match_std() {
+    let mut x = f32::from_bits(1);
+    while x.is_finite() {
+        for v in [x, -x] {
+            check_float(v);
+        }
+        for v in neighbours(x) {
+            check_float(v);
+        }
+        x *= 2.0;
+    }
+}
+
+#[test]
+fn powers_of_ten_match_std() {
+    for e in -45..=38 {
+        let x: f32 = format!("1e{e}").parse().unwrap();
+        check_float(x);
+        check_float(-x);
+        for v in neighbours(x) {
+            check_float(v);
+        }
+        check_parse(&format!("1e{e}"));
+        check_parse(&format!("-1E{e}"));
+    }
+}
+
+#[test]
+fn subnormals_match_std() {
+    for bits in (1..2000).chain((2000..0x0080_0000).step_by(997)) {
+        check_float(f32::from_bits(bits));
+    }
+    check_float(f32::from_bits(0x007f_ffff));
+}
+
+#[test]
+fn strided_bit_patterns_match_std() {
+    // About a million patterns spread over every exponent.
+    for bits in (0..0x7f80_0000u32).step_by(2039) {
+        check_float(f32::from_bits(bits));
+        check_float(-f32::from_bits(bits));
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(50_000))]
+
+    #[test]
+    fn any_bit_pattern_matches_std(bits in any::<u32>()) {
+        let x = f32::from_bits(bits);
+        prop_assume!(x.is_finite());
+        check_float(x);
+    }
+
+    #[test]
+    fn typical_robot_values_match_std(x in -1e6f32..1e6) {
+        check_float(x);
+        check_float(x / 1000.0);
+    }
+}
+
+/// Builds decimal text from its parts: sign, leading zeros, at most 19 significant digits with
+/// an optional point, and an optional exponent in one of several spellings.
+fn decimal_text() -> impl Strategy<Value = String> {
+    (
+        0..3usize,
+        0..4usize,
+        prop::collection::vec(0..10u8, 1..=19),
+        any::<prop::sample::Index>(),
+        any::<bool>(),
+        prop::option::of((-75..60i32, 0..4usize)),
+    )
+        .prop_map(|(sign, zeros, digits, point, has_point, exponent)| {
+            let mut text = String::from(["", "+", "-"][sign]);
+            text.push_str(&"0".repeat(zeros));
+            let digits: String = digits.iter().map(|d| char::from(b'0' + d)).collect();
+            if has_point {
+                let at = point.index(digits.len() + 1);
+                text.push_str(&digits[..at]);
+                text.push('.');
+                text.push_str(&digits[at..]);
+            } else {
+                text.push_str(&digits);
+            }
+            if let Some((e, spelling)) = exponent {
+                let e = match spelling {
+                    0 => format!("e{e}"),
+                    1 => format!("E{e}"),
+                    2 if e >= 0 => format!("e+{e}"),
+                    2 => format!("E{e}"),
+                    _ => format!("e{:03}", e), // zero-padded exponent
+                };
+                text.push_str(&e);
+            }
+            text
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(50_000))]
+
+    #[test]
+    fn parse_matches_std(text in decimal_text()) {
+        check_parse(&text);
+    }
+
+    #[test]
+    fn nine_digit_values_match_std(
+        mantissa in 1u32..1_000_000_000,
+        exponent in -55..=38i32,
+        negative in any::<bool>(),
+    ) {
+        let sign = if negative { "-" } else { "" };
+        check_parse(&format!("{sign}{mantissa}e{exponent}"));
+        check_parse(&format!("{sign}0.{mantissa:09}e{exponent}"));
+    }
+
+    /// Exact midpoints between adjacent floats whose decimal fits 19 significant digits must
+    /// round to the even neighbour; 19-digit decimals just below and above any midpoint must
+    /// round down and up.
+    #[test]
+    fn midpoints_round_to_even(bits in 1u32..0x7f7f_ffff) {
+        let low = f32::from_bits(bits);
+        let high = f32::from_bits(bits + 1);
+        // Adjacent floats have 24-bit significands one binade apart at most: exact in f64.
+        let mid = (f64::from(low) + f64::from(high)) / 2.0;
+        let exact = exact_decimal(mid);
+        let significant = exact.trim_start_matches(['0', '.']).replace('.', "");
+        if significant.len() <= 19 {
+            let even = if bits % 2 == 0 { low } else { high };
+            prop_assert_eq!(parse_f32(exact.as_bytes()), Ok(even), "{}", exact);
+            check_parse(&exact);
+            // A non-zero digit far past the 19th breaks the tie upwards (the sticky bit).
+            let point = if exact.contains('.') { "" } else { "." };
+            let nudged = format!("{exact}{point}{}1", "0".repeat(20));
+            prop_assert_eq!(parse_f32(nudged.as_bytes()), Ok(high), "{}", nudged);
+            check_parse(&nudged);
+        }
+        // 19 significant digits just below and just above the midpoint.
+        let (below, above) = bracket_19(mid);
+        prop_assert_eq!(parse_f32(below.as_bytes()), Ok(low), "{}", below);
+        prop_assert_eq!(parse_f32(above.as_bytes()), Ok(high), "{}", above);
+        check_parse(&below);
+        check_parse(&above);
+    }
+}
+
+/// The exact decimal expansion of a positive `f64` (std prints exact digits when asked for
+/// enough of them).
+fn exact_decimal(v: f64) -> String {
+    let text = format!("{v:.1100}");
+    text.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// The 19-significant-digit decimals just below and just above `v` (which has more digits).
+fn bracket_19(v: f64) -> (String, String) {
+    // `{:.18e}` rounds to 19 digits; step the last digit to land on each side of `v`.
+    let text = format!("{v:.18e}");
+    let (mantissa, exponent) = text.split_once('e').unwrap();
+    let exponent: i32 = exponent.parse().unwrap();
+    let digits: u64 = mantissa.replace('.', "").parse().unwrap();
+    let as_text = |d: u64| format!("{d}e{}", exponent - 18);
+    let value = |d: u64| exact_value_cmp(d, exponent - 18, v);
+    let (mut low, mut high) = (digits, digits);
+    while value(low) != std::cmp::Ordering::Less {
+        low -= 1;
+    }
+    while value(high) != std::cmp::Ordering::Greater {
+        high += 1;
+    }
+    (as_text(low), as_text(high))
+}
+
+/// Compares `d·10^e` with `v` exactly, using std's exact decimal expansion of `v`.
+fn exact_value_cmp(d: u64, e: i32, v: f64) -> std::cmp::Ordering {
+    // Both as (digits, exponent of the first digit) compared digit by digit.
+    let normalise = |s: String, point: i64| -> (i64, Vec<u8>) {
+        let digits: Vec<u8> = s.bytes().collect();
+        let first = digits
+            .iter()
+            .position(|&c| c != b'0')
+            .unwrap_or(digits.len());
+        let mut significant = digits[first..].to_vec();
+        while significant.last() == Some(&b'0') {
+            significant.pop();
+        }
+        (point - first as i64, significant)
+    };
+    let d_text = d.to_string();
+    let left = normalise(d_text.clone(), d_text.len() as i64 + i64::from(e));
+    let exact = exact_decimal(v);
+    let (int, frac) = exact.split_once('.').unwrap_or((&exact, ""));
+    let right = normalise(format!("{int}{frac}"), int.len() as i64);
+    left.0.cmp(&right.0).then_with(|| left.1.cmp(&right.1))
+}
+
+#[test]
+fn parse_forms_match_std() {
+    for text in [
+        ".5",
+        "5.",
+        "-.5",
+        "+5.",
+        "1e5",
+        "1E5",
+        "1.5E+3",
+        "1.5e-3",
+        "-0.00023393621",
+        "0",
+        "-0",
+        "+0",
+        "0.0",
+        "00000.00000",
+        "0e99999",
+        "1e-99999",
+        "-1e-99999",
+        "1e-46",
+        "7e-46",
+        "7.1e-46",
+        "1.4e-45",
+        "3.4028235e38",
+        "3.40282356e38",
+        "340282356779733661637539395458142568447",
+        "0.000000000000000000000000000000000000000000001",
+        "2097152.25",
+        "2097152.75",
+        "16777217",
+        "16777219",
+        "9999999999999999999",
+        "12345678901234567890123456789",
+        "1234567890123456789e-19",
+        "0.1",
+        "0.2",
+        "0.3",
+        "00123.4500e2",
+        "123456789e-50",
+        "1e00000000000000000000000000000000000001",
+    ] {
+        check_parse(text);
+    }
+    assert_eq!(parse_f32(b"-0").map(f32::to_bits), Ok((-0.0f32).to_bits()));
+    assert_eq!(
+        parse_f32(b"-1e-99999").map(f32::to_bits),
+        Ok((-0.0f32).to_bits())
+    );
+    assert_eq!(parse_f32(b"0e99999"), Ok(0.0));
+}
+
+#[test]
+fn more_than_19_digits_are_close() {
+    // Digits past the 19th only set a sticky bit; far from midpoints the result is exact.
+    check_parse("0.10000000000000000000000000000000001");
+    check_parse("3.14159265358979323846264338327950288");
+    check_parse("100000000000000000000000000000000000000");
+    check_parse(&format!("1{}e-60", "0".repeat(50)));
+    check_parse(&format!("0.{}1", "0".repeat(200)));
+    check_parse(&format!("{}1e-200", "0".repeat(300)));
+    // 16777217 is the midpoint of 16777216 and 16777218: ties go to even, anything above up.
+    assert_eq!(parse_f32(b"16777217"), Ok(16_777_216.0));
+    assert_eq!(parse_f32(b"16777217.0000000000001"), Ok(16_777_218.0));
+    assert_eq!(parse_f32(b"16777216.9999999999999"), Ok(16_777_216.0));
+    check_parse("16777217.0000000000001");
+    check_parse("16777217.000000000000000000000000000000000000000001");
+}
+
+#[test]
+fn parse_rejections() {
+    assert_eq!(parse_f32(b""), Err(NumberError::Empty));
+    for bad in [
+        "-", "+", ".", "-.", "e5", ".e5", "1e", "1e+", "1e-", "1.2.3", "1,5", " 1", "1 ", "inf",
+        "-inf", "nan", "NaN", "infinity", "0x10", "--1", "+-1", "1e5.0", "1e5e5", "1d5", "١",
+        "1_000",
+    ] {
+        assert_eq!(
+            parse_f32(bad.as_bytes()),
+            Err(NumberError::Invalid),
+            "{bad:?}"
+        );
+    }
+    for big in [
+        "1e39",
+        "3.5e38",
+        "-3.5e38",
+        "1e99999",
+        "3.40282357e38",
+        "99e99",
+    ] {
+        assert_eq!(
+            parse_f32(big.as_bytes()),
+            Err(NumberError::OutOfRange),
+            "{big:?}"
+        );
+    }
+}
+
+#[test]
+fn write_rejects_non_finite() {
+    let mut out = [0u8; F32_TEXT_MAX];
+    for x in [f32::NAN, -f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        assert_eq!(write_f32(x, &mut out), Err(NumberError::NotFinite));
+    }
+}
+
+/// Our text for an integer.
+fn int_text(v: i64) -> String {
+    let mut out = [0u8; I64_TEXT_MAX];
+    let len = write_i64(v, &mut out);
+    String::from_utf8(out[..len].to_vec()).unwrap()
+}
+
+#[test]
+fn integer_edges() {
+    for v in [
+        i64::MIN,
+        i64::MIN + 1,
+        i64::MAX,
+        0,
+        -1,
+        1,
+        9,
+        10,
+        -10,
+        99,
+        100,
+    ] {
+        assert_eq!(int_text(v), v.to_string());
+        assert_eq!(parse_i64(v.to_string().as_bytes()), Ok(v));
+    }
+    assert_eq!(int_text(i64::MIN).len(), I64_TEXT_MAX);
+    assert_eq!(parse_i64(b"+5"), Ok(5));
+    assert_eq!(parse_i64(b"-0"), Ok(0));
+    assert_eq!(parse_i64(b"007"), Ok(7));
+    assert_eq!(
+        parse_i64(b"9223372036854775808"),
+        Err(NumberError::OutOfRange)
+    );
+    assert_eq!(
+        parse_i64(b"-9223372036854775809"),
+        Err(NumberError::OutOfRange)
+    );
+    assert_eq!(
+        parse_i64(b"99999999999999999999999"),
+        Err(NumberError::OutOfRange)
+    );
+    assert_eq!(
+        parse_i64(b"99999999999999999999999x"),
+        Err(NumberError::Invalid)
+    );
+    assert_eq!(parse_i64(b""), Err(NumberError::Empty));
+    for bad in [
+        "-", "+", "5.0", "1e3", " 5", "5 ", "--5", "+-5", "0x1", "five",
+    ] {
+        assert_eq!(
+            parse_i64(bad.as_bytes()),
+            Err(NumberError::Invalid),
+            "{bad:?}"
+        );
+    }
+    assert_eq!(parse_int::<u8>(b"255"), Ok(255));
+    assert_eq!(parse_int::<u8>(b"256"), Err(NumberError::OutOfRange));
+    assert_eq!(parse_int::<u8>(b"-1"), Err(NumberError::OutOfRange));
+    assert_eq!(parse_int::<i8>(b"-128"), Ok(-128));
+    assert_eq!(parse_int::<i8>(b"+5"), Ok(5));
+    assert_eq!(parse_int::<u32>(b"5.0"), Err(NumberError::Invalid));
+    assert_eq!(parse_int::<u16>(b""), Err(NumberError::Empty));
+    assert_eq!(parse_int::<u16>(b"-"), Err(NumberError::Invalid));
+    assert_eq!(
+        parse_int::<u64>(b"9223372036854775807"),
+        Ok(i64::MAX as u64)
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(20_000))]
+
+    #[test]
+    fn integers_round_trip(v in any::<i64>()) {
+        let text = int_text(v);
+        prop_assert_eq!(&text, &v.to_string());
+        prop_assert_eq!(parse_i64(text.as_bytes()), Ok(v));
+        prop_assert_eq!(parse_int::<i32>(text.as_bytes()).ok(), i32::try_from(v).ok());
+    }
+
+    #[test]
+    fn integer_parse_matches_std(text in "[+-]?[0-9]{1,22}") {
+        let expected = text.parse::<i64>().map_err(|_| NumberError::OutOfRange);
+        prop_assert_eq!(parse_i64(text.as_bytes()), expected);
+    }
+}
+
+/// Every one of the 2^32 bit patterns against std, on all cores. About 2·10^9 finite values per
+/// sign; run by hand: `cargo test --release --test number -- --ignored`.
+#[test]
+#[ignore = "checks all 2^32 floats; minutes in release mode"]
+fn exhaustive_f32_round_trip() {
+    use std::fmt::Write;
+    use std::sync::atomic::{AtomicU64, Ordering};
+
+    let threads = std::thread::available_parallelism().map_or(4, |n| n.get()) as u64;
+    let failures = AtomicU64::new(0);
+    let longest = AtomicU64::new(0);
+    const TOTAL: u64 = 1 << 32;
+    std::thread::scope(|scope| {
+        for t in 0..threads {
+            let (failures, longest) = (&failures, &longest);
+            scope.spawn(move || {
+                let mut expected = String::with_capacity(64);
+                let mut out = [0u8; F32_TEXT_MAX];
+                let mut local_longest = 0;
+                for bits in (TOTAL * t / threads)..(TOTAL * (t + 1) / threads) {
+                    let x = f32::from_bits(bits as u32);
+                    if !x.is_finite() {
+                        continue;
+                    }
+                    expected.clear();
+                    write!(expected, "{x}").unwrap();
+                    let len = write_f32(x, &mut out).unwrap();
+                    local_longest = local_longest.max(len);
+                    let parsed = parse_f32(expected.as_bytes());
+                    let wrong = &out[..len] != expected.as_bytes()
+                        || parsed.map(f32::to_bits) != Ok(bits as u32);
+                    if wrong && failures.fetch_add(1, Ordering::Relaxed) < 20 {
+                        eprintln!(
+                            "{bits:#010x}: std {expected:?}, ours {:?}, parsed {parsed:?}",
+                            String::from_utf8_lossy(&out[..len])
+                        );
+                    }
+                }
+                longest.fetch_max(local_longest as u64, Ordering::Relaxed);
+            });
+        }
+    });
+    assert_eq!(failures.load(Ordering::Relaxed), 0);
+    assert_eq!(longest.load(Ordering::Relaxed), F32_TEXT_MAX as u64);
+}
