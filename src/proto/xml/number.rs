@@ -722,27 +722,29 @@ impl Window {
     /// The shortest integer in the window, nearest to `y`, ties to the larger one; returned as
     /// digits and decimal exponent.
     fn pick(&self) -> (u32, i32) {
-        // The largest power of ten with a multiple inside the window. (The tests are
-        // independent of each other, which keeps this quick.)
+        // The largest power of ten with a multiple inside the window: the window holds a
+        // multiple of 10^k exactly when high/10^k > (low-1)/10^k. Dividing by the constant
+        // 10 compiles to a multiplication; a division by a variable power would not.
+        let (mut below, mut high) = (self.low.saturating_sub(1), self.high);
         let mut step = 1u32;
         let mut zeros = 0;
-        while let Some(next) = step.checked_mul(10) {
-            if self.high.checked_div(next).unwrap_or(0) * next < self.low {
-                break;
-            }
-            step = next;
+        while high / 10 > below / 10 {
+            high /= 10;
+            below /= 10;
+            step = step.saturating_mul(10);
             zeros += 1;
         }
         // The nearest multiple of `step` is one of the two around y.
-        let down = ((self.y >> 32) as u32).checked_div(step).unwrap_or(0) * step;
+        let quotient = ((self.y >> 32) as u32).checked_div(step).unwrap_or(0);
+        let down = quotient * step;
         let up = down.saturating_add(step);
         let inside = |c: u32| (self.low..=self.high).contains(&c);
         let chosen = match (inside(down), inside(up)) {
-            (true, true) if self.up_is_nearer(down, step) => up,
-            (true, _) => down,
-            _ => up,
+            (true, true) if self.up_is_nearer(down, step) => quotient + 1,
+            (true, _) => quotient,
+            _ => quotient + 1,
         };
-        (chosen.checked_div(step).unwrap_or(0), zeros - self.scale)
+        (chosen, zeros - self.scale)
     }
 
     /// Whether `y >= down + step/2`.

@@ -103,6 +103,7 @@ impl<'a> XmlWriter<'a> {
     /// Writes `{indent}<name>value</name>{newline}` with one bounds check: an item line is
     /// the unit of almost every document, and many tiny checked copies cost more than the
     /// text itself.
+    #[inline]
     fn line(
         &mut self,
         indent: &[u8],
@@ -110,19 +111,21 @@ impl<'a> XmlWriter<'a> {
         value: &[u8],
         newline: &[u8],
     ) -> Result<(), WriteError> {
-        let pieces: [&[u8]; 9] = [indent, b"<", name, b">", value, b"</", name, b">", newline];
-        let total: usize = pieces.iter().map(|p| p.len()).sum();
-        let mut out = self
+        let total = indent.len() + 2 * name.len() + value.len() + newline.len() + 5;
+        let out = self
             .buf
             .get_mut(self.len..self.len + total)
             .ok_or(WriteError::BufferFull)?;
-        for piece in pieces {
-            let (head, tail) = out
-                .split_at_mut_checked(piece.len())
-                .ok_or(WriteError::BufferFull)?;
-            head.copy_from_slice(piece);
-            out = tail;
-        }
+        let mut out = Cursor(out);
+        out.put(indent);
+        out.put(b"<");
+        out.put(name);
+        out.put(b">");
+        out.put(value);
+        out.put(b"</");
+        out.put(name);
+        out.put(b">");
+        out.put(newline);
         self.len += total;
         Ok(())
     }
@@ -150,6 +153,27 @@ impl<'a> XmlWriter<'a> {
     }
 }
 
+/// Fills a slice already checked to be long enough, piece by piece.
+struct Cursor<'a>(&'a mut [u8]);
+
+impl Cursor<'_> {
+    /// Copies `bytes` and moves past them. Always inlined, so that constant pieces become
+    /// plain stores instead of calls to `memcpy`.
+    #[inline(always)]
+    fn put(&mut self, bytes: &[u8]) {
+        let rest = core::mem::take(&mut self.0);
+        if let Some((head, tail)) = rest.split_at_mut_checked(bytes.len()) {
+            head.copy_from_slice(bytes);
+            self.0 = tail;
+        }
+    }
+}
+
+/// The first `n` bytes of a formatted number.
+fn prefix(text: &[u8], n: usize) -> &[u8] {
+    text.get(..n).unwrap_or_default()
+}
+
 fn escape(reserved: u8) -> &'static [u8] {
     match reserved {
         b'&' => b"&amp;",
@@ -160,8 +184,6 @@ fn escape(reserved: u8) -> &'static [u8] {
     }
 }
 
-/// The XML declaration every document starts with.
-const DECLARATION: &[u8] = b"<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
 const ROOT: &str = "PatrolDevice";
 const ITEMS: &str = "Items";
 const CHILD_INDENT: &[u8] = b"  ";
@@ -185,19 +207,35 @@ impl<'a> DocumentWriter<'a> {
         command: i32,
         time: &Timestamp,
     ) -> Result<Self, WriteError> {
-        let mut w = XmlWriter::new(buf);
-        w.raw(DECLARATION)?;
-        w.start(ROOT)?;
-        w.raw(b"\n")?;
-        w.raw(CHILD_INDENT)?;
-        w.int_element("Type", message_type.into())?;
-        w.raw(b"\n")?;
-        w.raw(CHILD_INDENT)?;
-        w.int_element("Command", command.into())?;
-        w.raw(b"\n")?;
-        w.raw(CHILD_INDENT)?;
-        w.time_element("Time", time)?;
-        w.raw(b"\n")?;
+        // The header is the same text around three values: format those, check the length
+        // once, then copy constant pieces (which compile to plain stores).
+        let (mut type_text, mut command_text) = ([0; I64_TEXT_MAX], [0; I64_TEXT_MAX]);
+        let type_len = number::write_i64(message_type.into(), &mut type_text);
+        let command_len = number::write_i64(command.into(), &mut command_text);
+        let type_text = prefix(&type_text, type_len);
+        let command_text = prefix(&command_text, command_len);
+        let mut time_text = [0; TIME_TEXT_LEN];
+        time.encode(&mut time_text);
+        const PIECES: [&[u8]; 4] = [
+            b"<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<PatrolDevice>\n  <Type>",
+            b"</Type>\n  <Command>",
+            b"</Command>\n  <Time>",
+            b"</Time>\n",
+        ];
+        let total = PIECES.iter().map(|p| p.len()).sum::<usize>()
+            + type_text.len()
+            + command_text.len()
+            + TIME_TEXT_LEN;
+        let mut out = Cursor(buf.get_mut(..total).ok_or(WriteError::BufferFull)?);
+        let [declaration, after_type, after_command, after_time] = PIECES;
+        out.put(declaration);
+        out.put(type_text);
+        out.put(after_type);
+        out.put(command_text);
+        out.put(after_command);
+        out.put(&time_text);
+        out.put(after_time);
+        let w = XmlWriter { buf, len: total };
         Ok(Self {
             w,
             items_open: false,
