@@ -12,7 +12,7 @@ step() { printf '\n=== %s\n' "$*"; }
 
 step "format"
 cargo fmt --check
-(cd host-tests && cargo fmt --check)
+(cd host-tests && cargo fmt --all --check)
 (cd host-tests/fuzz && cargo fmt --check)
 (cd tools/codec-size && cargo fmt --check)
 
@@ -22,7 +22,7 @@ cargo clippy --release --lib --features defmt,vendor-extensions -- -D warnings
 cargo clippy --release --lib --no-default-features -- -D warnings
 
 step "clippy: host"
-(cd host-tests && cargo clippy --all-targets -- -D warnings)
+(cd host-tests && cargo clippy --workspace --all-targets -- -D warnings)
 
 step "docs"
 RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --lib --features vendor-extensions
@@ -32,7 +32,7 @@ cargo build --release
 scripts/firmware-size.sh
 
 step "host tests"
-(cd host-tests && cargo test --all-targets)
+(cd host-tests && cargo test --workspace --all-targets)
 
 step "benchmark (zero allocations asserted; timings reported)"
 (cd host-tests && X30_BENCH_QUICK=1 cargo bench --bench codec)
