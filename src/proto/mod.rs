@@ -9,6 +9,7 @@
 //! error enum and writes into buffers the caller owns.
 
 pub mod codes;
+mod display;
 pub mod frame;
 pub mod message;
 pub mod time;
