@@ -1,0 +1,118 @@
+//! `x30-sim`: runs the robot_server simulator until interrupted.
+//!
+//! Prints `x30-sim listening on ADDR` once it listens, so that scripts can start it on
+//! port 0 and read the port it got.
+
+use std::io::Write;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::{Parser, ValueEnum};
+use x30_sim::{Config, DEFAULT_LISTEN, Declaration, Faults, Simulator};
+
+/// A simulator of the DEEP Robotics Jueying X30 robot_server (protocol V1.0.12).
+#[derive(Debug, Parser)]
+#[command(name = "x30-sim", version, about)]
+struct Cli {
+    /// Address to listen on (port 0 picks a free port).
+    #[arg(long, value_name = "ADDR", default_value_t = DEFAULT_LISTEN)]
+    listen: SocketAddr,
+    /// How many times faster than real time the robot's time runs.
+    #[arg(long, value_name = "FACTOR", default_value_t = 1.0, value_parser = positive_float)]
+    time_scale: f64,
+    /// Delay every answer by this many milliseconds.
+    #[arg(long, value_name = "MS", default_value_t = 0)]
+    delay_ms: u64,
+    /// Close each connection on receiving its Nth frame, without answering it.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    drop_after: Option<u64>,
+    /// Send a few garbage bytes (no sync sequence) before each answer frame.
+    #[arg(long)]
+    garbage: bool,
+    /// Write each answer in chunks of N bytes, about 1 ms apart.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    split: Option<u64>,
+    /// Write each answer together with an extra 1002 status frame (ID + 0x8000) in one write.
+    #[arg(long)]
+    merge: bool,
+    /// Answer with Type 2102 instead of the real Type.
+    #[arg(long)]
+    unknown_type: bool,
+    /// Insert undocumented items (AngleYaw, CurRuntime, RTKState, …) into every answer.
+    #[arg(long)]
+    unknown_items: bool,
+    /// XML declaration of answers.
+    #[arg(long, value_enum, default_value_t = DeclarationArg::Double)]
+    declaration: DeclarationArg,
+    /// Write every received frame to FILE as JSON lines.
+    #[arg(long, value_name = "FILE")]
+    log: Option<PathBuf>,
+}
+
+/// `--declaration` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum DeclarationArg {
+    /// `<?xml version="1.0" encoding="UTF-8"?>`
+    Double,
+    /// `<?xml version='1.0' encoding='utf-8'?>`
+    Single,
+    /// No declaration.
+    None,
+}
+
+impl From<DeclarationArg> for Declaration {
+    fn from(arg: DeclarationArg) -> Self {
+        match arg {
+            DeclarationArg::Double => Self::Double,
+            DeclarationArg::Single => Self::Single,
+            DeclarationArg::None => Self::None,
+        }
+    }
+}
+
+fn positive_float(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("{text:?} is not a positive number")),
+    }
+}
+
+impl Cli {
+    fn config(&self) -> Config {
+        Config {
+            listen: self.listen,
+            time_scale: self.time_scale,
+            faults: Faults {
+                delay: Duration::from_millis(self.delay_ms),
+                drop_after: self.drop_after,
+                garbage: self.garbage,
+                split: self.split.and_then(|n| usize::try_from(n).ok()),
+                merge: self.merge,
+                unknown_type: self.unknown_type,
+                unknown_items: self.unknown_items,
+                declaration: self.declaration.into(),
+            },
+            log_file: self.log.clone(),
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let sim = match Simulator::start(cli.config()) {
+        Ok(sim) => sim,
+        Err(e) => {
+            eprintln!("x30-sim: cannot start on {}: {e}", cli.listen);
+            return ExitCode::FAILURE;
+        }
+    };
+    println!("x30-sim listening on {}", sim.addr());
+    // Scripts wait for this line; make sure it leaves even when stdout is a pipe.
+    let _ = std::io::stdout().flush();
+    // Serve until the process is interrupted; the threads do the work.
+    loop {
+        std::thread::park();
+    }
+}

@@ -1,0 +1,430 @@
+//! The TCP side: the listener, the tick thread, and one reader thread per connection.
+//!
+//! Threads and what they own:
+//! - the listener accepts connections and starts a reader and an outbox for each;
+//! - the tick thread moves the robot on at 50 Hz and sends the answers of tasks that ended;
+//! - a connection's reader decodes frames, logs them, asks the robot, and queues answers;
+//! - a connection's outbox ([`crate::outbox`]) writes them.
+//!
+//! All of them share one [`Shared`]. No thread holds two of its locks at once, so they
+//! cannot deadlock; every blocking call has a timeout so that shutdown is prompt.
+
+use std::collections::HashMap;
+use std::io::{self, ErrorKind, Read};
+use std::net::{Shutdown, TcpListener, TcpStream};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{self, Sender};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::thread::{self, JoinHandle};
+use std::time::{Duration, Instant};
+
+use x30_panel::proto::codes::RequestErrorCode;
+use x30_panel::proto::frame::{FrameDecoder, FrameError, HEADER_LEN};
+use x30_panel::proto::message::{MAX_REQUEST_LEN, Request, RequestError, Response};
+use x30_panel::proto::xml::{StructureError, read_document};
+
+use crate::faults::Faults;
+use crate::log::{LogEntry, RequestLog};
+use crate::outbox::{self, Outgoing};
+use crate::robot::{ConnId, EndedTask, Reply, Requester, Robot};
+
+/// How often the robot is moved on when nobody asks it anything.
+pub const TICK: Duration = Duration::from_millis(20);
+
+/// How often an idle listener looks for a connection (it polls so it can stop).
+const ACCEPT_POLL: Duration = Duration::from_millis(5);
+
+/// Longest a reader blocks in `read` before looking whether the simulator is shutting down.
+const READ_POLL: Duration = Duration::from_millis(100);
+
+/// The frame decoder of each connection: big enough for the longest valid request.
+type Decoder = FrameDecoder<{ HEADER_LEN + MAX_REQUEST_LEN }>;
+
+/// Locks a mutex, carrying on with the data if another thread panicked while holding it
+/// (the simulator's state stays usable; nothing here leaves it half-changed).
+pub(crate) fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
+    mutex.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// An open connection, as other threads see it.
+#[derive(Debug)]
+struct ConnHandle {
+    /// Its outbox.
+    outbox: Sender<Outgoing>,
+    /// A handle to close it with.
+    stream: TcpStream,
+}
+
+/// State shared by every thread of one simulator.
+#[derive(Debug)]
+pub(crate) struct Shared {
+    /// When the simulator started: the origin of the robot's time and of log times.
+    pub start: Instant,
+    /// The one robot every connection talks to.
+    pub robot: Mutex<Robot>,
+    faults: Mutex<Faults>,
+    /// Every frame received.
+    pub log: RequestLog,
+    conns: Mutex<HashMap<ConnId, ConnHandle>>,
+    next_conn: AtomicU64,
+    shutdown: AtomicBool,
+    /// Connection threads, joined on shutdown.
+    threads: Mutex<Vec<JoinHandle<()>>>,
+}
+
+impl Shared {
+    /// State for a simulator whose robot, faults and log are given.
+    pub fn new(robot: Robot, faults: Faults, log: RequestLog) -> Self {
+        Self {
+            start: Instant::now(),
+            robot: Mutex::new(robot),
+            faults: Mutex::new(faults),
+            log,
+            conns: Mutex::new(HashMap::new()),
+            next_conn: AtomicU64::new(1),
+            shutdown: AtomicBool::new(false),
+            threads: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// Real time since the simulator started.
+    pub fn now(&self) -> Duration {
+        self.start.elapsed()
+    }
+
+    /// The faults in force.
+    pub fn faults(&self) -> Faults {
+        lock(&self.faults).clone()
+    }
+
+    /// Changes the faults in force.
+    pub fn set_faults(&self, faults: Faults) {
+        *lock(&self.faults) = faults;
+    }
+
+    /// Whether the simulator is shutting down.
+    pub fn is_shutting_down(&self) -> bool {
+        self.shutdown.load(Ordering::SeqCst)
+    }
+
+    /// Tells every thread to stop and closes every connection.
+    pub fn begin_shutdown(&self) {
+        self.shutdown.store(true, Ordering::SeqCst);
+        self.drop_connections();
+    }
+
+    /// Brings the robot up to now, runs `f` on it, and sends the answers of any tasks that
+    /// ended meanwhile (after letting go of the robot).
+    pub fn with_robot<R>(&self, f: impl FnOnce(&mut Robot, Duration) -> R) -> R {
+        let now = self.now();
+        let (result, ended) = {
+            let mut robot = lock(&self.robot);
+            robot.advance(now);
+            let result = f(&mut robot, now);
+            (result, robot.take_ended())
+        };
+        self.deliver(ended);
+        result
+    }
+
+    /// Queues ended tasks' answers on their connections (gone connections are skipped).
+    fn deliver(&self, ended: Vec<EndedTask>) {
+        for task in ended {
+            let answer = Outgoing::new(task.owner.message_id, Response::NavResult(task.result));
+            self.send_to(task.owner.conn, answer);
+        }
+    }
+
+    /// Queues an answer on a connection; false if it is gone.
+    fn send_to(&self, conn: ConnId, outgoing: Outgoing) -> bool {
+        let outbox = lock(&self.conns).get(&conn).map(|c| c.outbox.clone());
+        outbox.is_some_and(|outbox| outbox.send(outgoing).is_ok())
+    }
+
+    /// Closes every open connection now; their readers notice and clean up.
+    pub fn drop_connections(&self) {
+        for handle in lock(&self.conns).values() {
+            let _ = handle.stream.shutdown(Shutdown::Both);
+        }
+    }
+
+    /// Number of open connections.
+    pub fn connection_count(&self) -> usize {
+        lock(&self.conns).len()
+    }
+
+    /// Starts a named thread that is joined on shutdown.
+    fn spawn(&self, name: &str, f: impl FnOnce() + Send + 'static) -> io::Result<()> {
+        let handle = thread::Builder::new().name(name.into()).spawn(f)?;
+        let mut threads = lock(&self.threads);
+        // Forget threads that have ended, so a long run does not collect handles.
+        threads.retain(|t| !t.is_finished());
+        threads.push(handle);
+        Ok(())
+    }
+
+    /// Waits until `deadline` at most for the connection threads to end.
+    pub fn join_connection_threads(&self, deadline: Instant) {
+        let threads = std::mem::take(&mut *lock(&self.threads));
+        for handle in threads {
+            join_until(handle, deadline);
+        }
+    }
+}
+
+/// Joins a thread if it ends before `deadline`; otherwise leaves it to end by itself.
+pub(crate) fn join_until(handle: JoinHandle<()>, deadline: Instant) {
+    while !handle.is_finished() && Instant::now() < deadline {
+        thread::sleep(Duration::from_millis(2));
+    }
+    if handle.is_finished() {
+        let _ = handle.join();
+    }
+}
+
+/// Accepts connections until shutdown. The listener must be non-blocking.
+pub(crate) fn listen(shared: Arc<Shared>, listener: TcpListener) {
+    while !shared.is_shutting_down() {
+        match listener.accept() {
+            Ok((stream, _)) => {
+                // A connection that cannot be set up is dropped; the next one may work.
+                let _ = open_connection(&shared, stream);
+            }
+            // Nothing waiting, or a transient failure (out of descriptors): try again soon.
+            Err(_) => thread::sleep(ACCEPT_POLL),
+        }
+    }
+}
+
+/// Moves the robot on every [`TICK`] until shutdown.
+pub(crate) fn tick(shared: Arc<Shared>) {
+    while !shared.is_shutting_down() {
+        thread::sleep(TICK);
+        shared.with_robot(|_, _| ());
+    }
+}
+
+/// Registers a new connection and starts its outbox and reader.
+fn open_connection(shared: &Arc<Shared>, stream: TcpStream) -> io::Result<()> {
+    // Accepted sockets may inherit the listener's non-blocking mode on some platforms.
+    stream.set_nonblocking(false)?;
+    // Each answer (or chunk) must leave as written, not coalesced with the next.
+    stream.set_nodelay(true)?;
+    stream.set_read_timeout(Some(READ_POLL))?;
+    let conn = shared.next_conn.fetch_add(1, Ordering::SeqCst);
+    let (outbox, queue) = mpsc::channel();
+    let writer = stream.try_clone()?;
+    let handle = ConnHandle {
+        outbox: outbox.clone(),
+        stream: stream.try_clone()?,
+    };
+    lock(&shared.conns).insert(conn, handle);
+    let started = {
+        let shared_w = Arc::clone(shared);
+        let shared_r = Arc::clone(shared);
+        shared
+            .spawn(&format!("x30-sim-out-{conn}"), move || {
+                outbox::run(shared_w, writer, queue)
+            })
+            .and_then(|()| {
+                shared.spawn(&format!("x30-sim-conn-{conn}"), move || {
+                    Connection::new(shared_r, stream, conn, outbox).serve()
+                })
+            })
+    };
+    if started.is_err() {
+        lock(&shared.conns).remove(&conn);
+    }
+    started
+}
+
+/// A frame as the robot understood it.
+enum Received {
+    /// A request to answer (boxed: a 1003 request with its waypoints is large).
+    Request { id: u16, request: Box<Request> },
+    /// Something to answer with Type 0 and this code.
+    Invalid { id: u16, code: RequestErrorCode },
+}
+
+/// Whether a connection goes on after an event.
+#[derive(Debug, PartialEq, Eq)]
+enum Flow {
+    Continue,
+    Close,
+}
+
+/// One client connection, as its reader thread sees it.
+struct Connection {
+    shared: Arc<Shared>,
+    stream: TcpStream,
+    conn: ConnId,
+    outbox: Sender<Outgoing>,
+    /// Frames received so far, for [`Faults::drop_after`].
+    received: u64,
+    /// Whether the last event was a frame with a wrong header: the bytes after it that the
+    /// decoder discards as garbage are that frame's rest, not another error.
+    after_bad_header: bool,
+}
+
+impl Connection {
+    fn new(shared: Arc<Shared>, stream: TcpStream, conn: ConnId, outbox: Sender<Outgoing>) -> Self {
+        Self {
+            shared,
+            stream,
+            conn,
+            outbox,
+            received: 0,
+            after_bad_header: false,
+        }
+    }
+
+    /// Reads and answers frames until the client leaves, a fault closes the connection, or
+    /// the simulator shuts down; then tells the robot the connection is gone.
+    fn serve(mut self) {
+        let mut decoder = Box::new(Decoder::new());
+        'read: while !self.shared.is_shutting_down() {
+            let spare = decoder.spare();
+            if spare.is_empty() {
+                // The decoder promises room while a frame is incomplete; never spin if not.
+                decoder.clear();
+                continue;
+            }
+            match (&self.stream).read(spare) {
+                Ok(0) => break,
+                Ok(n) => decoder.commit(n),
+                Err(e) if is_retry(&e) => continue,
+                Err(_) => break,
+            }
+            while let Some(event) = decoder.decode() {
+                // Owned, so the decoder's buffer is free again while the robot is asked.
+                let event = event.map(|f| (f.message_id, f.asdu.to_vec()));
+                if self.on_event(event) == Flow::Close {
+                    let _ = self.stream.shutdown(Shutdown::Both);
+                    break 'read;
+                }
+            }
+        }
+        let conn = self.conn;
+        self.shared
+            .with_robot(|robot, now| robot.connection_closed(conn, now));
+        lock(&self.shared.conns).remove(&conn);
+    }
+
+    /// Logs and answers one frame, or one stream error.
+    fn on_event(&mut self, event: Result<(u16, Vec<u8>), FrameError>) -> Flow {
+        let Some((entry, received)) = self.classify(event) else {
+            return Flow::Continue;
+        };
+        self.shared.log.record(entry);
+        self.received = self.received.saturating_add(1);
+        let limit = self.shared.faults().drop_after;
+        if limit.is_some_and(|limit| self.received >= limit) {
+            return Flow::Close;
+        }
+        match received {
+            Received::Request { id, request } => self.handle(id, &request),
+            Received::Invalid { id, code } => {
+                self.answer(id, Response::RequestError(RequestError { code }))
+            }
+        }
+        Flow::Continue
+    }
+
+    /// What an event amounts to, with its log entry; `None` for the rest of a frame whose
+    /// header was wrong, which that frame's error already covers.
+    fn classify(
+        &mut self,
+        event: Result<(u16, Vec<u8>), FrameError>,
+    ) -> Option<(LogEntry, Received)> {
+        let t = self.shared.now().as_secs_f64();
+        let conn = self.conn;
+        let after_bad_header = std::mem::take(&mut self.after_bad_header);
+        let (id, asdu) = match event {
+            Ok(frame) => frame,
+            Err(FrameError::Garbage { .. }) if after_bad_header => return None,
+            Err(error) => {
+                let (code, id) = match error {
+                    FrameError::BadReserved { message_id } => {
+                        self.after_bad_header = true;
+                        (RequestErrorCode::HeaderWrong, Some(message_id))
+                    }
+                    FrameError::TooLong { message_id, .. } => {
+                        (RequestErrorCode::LengthAbnormal, Some(message_id))
+                    }
+                    _ => (RequestErrorCode::HeaderMissing, None),
+                };
+                let entry = LogEntry::failure(t, conn, id, None, format!("frame: {error:?}"));
+                // Bytes without a header have no message ID: answer with 0.
+                let id = id.unwrap_or(0);
+                return Some((entry, Received::Invalid { id, code }));
+            }
+        };
+        Some(match Request::decode(&asdu) {
+            Ok(decoded) => (
+                LogEntry::request(t, conn, id, &decoded.message),
+                Received::Request {
+                    id,
+                    request: Box::new(decoded.message),
+                },
+            ),
+            Err(error) => {
+                let error = format!("decode: {error:?}");
+                (
+                    LogEntry::failure(t, conn, Some(id), envelope(&asdu), error),
+                    Received::Invalid {
+                        id,
+                        code: RequestErrorCode::ParseFailed,
+                    },
+                )
+            }
+        })
+    }
+
+    /// Asks the robot and queues what it says.
+    fn handle(&self, message_id: u16, request: &Request) {
+        let from = Requester {
+            conn: self.conn,
+            message_id,
+        };
+        match self
+            .shared
+            .with_robot(|robot, now| robot.handle(request, from, now))
+        {
+            Reply::Now(response) => self.answer(message_id, response),
+            Reply::Later => {}
+            Reply::AfterTask { task, answer } => {
+                // The task's answer goes first on its own connection; this one waits for it.
+                let (written, after) = mpsc::channel();
+                let task_answer = Outgoing {
+                    written: Some(written),
+                    ..Outgoing::new(task.owner.message_id, Response::NavResult(task.result))
+                };
+                self.shared.send_to(task.owner.conn, task_answer);
+                let _ = self.outbox.send(Outgoing {
+                    after: Some(after),
+                    ..Outgoing::new(message_id, answer)
+                });
+            }
+        }
+    }
+
+    fn answer(&self, message_id: u16, response: Response) {
+        // Fails only if the outbox has ended (the connection is closing): nothing to do.
+        let _ = self.outbox.send(Outgoing::new(message_id, response));
+    }
+}
+
+/// Type and Command of a body that did not decode as a request, if its XML got that far.
+fn envelope(asdu: &[u8]) -> Option<(i32, i32)> {
+    read_document(asdu, |_, _| Ok::<(), StructureError>(()))
+        .ok()
+        .map(|(e, _)| (e.message_type, e.command))
+}
+
+/// Whether a read error only means "nothing yet".
+fn is_retry(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        ErrorKind::WouldBlock | ErrorKind::TimedOut | ErrorKind::Interrupted
+    )
+}

@@ -1,0 +1,224 @@
+//! `nav`: one navigation task (Type 1003), awaited for as long as it takes.
+//!
+//! The robot answers a 1003 request only when the task has ended, and stops the task if
+//! the requesting connection drops (ErrorStatus 41802). So the task gets its own
+//! connection, kept open until the answer arrives, and nothing else is sent on it (the
+//! document warns that a 1007 sent on the same connection can mix up answers).
+//!
+//! Ctrl-C (or `--nav-timeout`) cancels the task with a 1004 request on a separate
+//! connection; the robot then sends the cancelled 1003 answer (ErrorCode 2, ErrorStatus
+//! 8962) on the task connection and the 1004 answer on the other. Both are reported. A
+//! second Ctrl-C gives up at once.
+
+use std::sync::mpsc;
+use std::thread;
+use std::time::Duration;
+
+use x30_panel::proto::codes::{MessageType, NavOutcome};
+use x30_panel::proto::message::{NavTask, Request, Response};
+
+use crate::cli::NavArgs;
+use crate::conn::{Answer, Check, Deadline};
+use crate::error::Error;
+use crate::render::{self, note};
+use crate::{Ctx, Interrupts};
+
+/// Why the task is being cancelled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Reason {
+    /// Ctrl-C.
+    Interrupted,
+    /// `--nav-timeout` expired.
+    TimedOut(Duration),
+}
+
+/// A 1004 request running on its own thread and connection, so the task connection keeps
+/// being read while it runs.
+struct Cancel {
+    reason: Reason,
+    rx: mpsc::Receiver<Result<Answer, Error>>,
+    result: Option<Result<Answer, Error>>,
+    /// How long to go on waiting for the cancelled 1003 answer.
+    deadline: Deadline,
+    /// Bound on the 1004 exchange itself (connect, send, answer).
+    exchange: Duration,
+}
+
+impl Cancel {
+    fn start(ctx: &Ctx, reason: Reason) -> Self {
+        if !ctx.json {
+            note(&match reason {
+                Reason::Interrupted => "x30ctl: Ctrl-C: cancelling the navigation task (Type 1004); Ctrl-C again to give up at once".to_owned(),
+                Reason::TimedOut(after) => format!(
+                    "x30ctl: the navigation task did not finish within {} s: cancelling it (Type 1004)",
+                    after.as_secs_f64()
+                ),
+            });
+        }
+        let (tx, rx) = mpsc::channel();
+        let cancel_ctx = ctx.clone();
+        thread::spawn(move || {
+            let result = cancel_ctx
+                .connect()
+                .and_then(|mut conn| conn.request(&Request::CancelNav));
+            let _ = tx.send(result);
+        });
+        let exchange = ctx.connect_timeout + ctx.timeout;
+        Self {
+            reason,
+            rx,
+            result: None,
+            // The robot sends the 1003 answer before the 1004 answer, so once the 1004
+            // exchange is over the 1003 answer is due; one more answer timeout is margin.
+            deadline: Deadline::after(exchange + ctx.timeout),
+            exchange,
+        }
+    }
+
+    /// The 1004 result, if it has arrived.
+    fn poll(&mut self) -> Option<&Result<Answer, Error>> {
+        if self.result.is_none() {
+            self.result = self.rx.try_recv().ok();
+        }
+        self.result.as_ref()
+    }
+
+    /// The 1004 result, waiting for it as long as the exchange may take.
+    fn finish(mut self) -> Result<Answer, Error> {
+        if let Some(result) = self.result.take() {
+            return result;
+        }
+        self.rx
+            .recv_timeout(self.exchange + Duration::from_millis(500))
+            .unwrap_or_else(|_| {
+                Err(Error::Timeout {
+                    waited: self.exchange,
+                    message_type: MessageType::CancelNav.raw(),
+                })
+            })
+    }
+}
+
+/// Runs `nav`.
+pub fn run(ctx: &Ctx, args: &NavArgs, interrupts: &Interrupts) -> Result<(), Error> {
+    let point = args.point();
+    let request = Request::NavTask(NavTask::to_point(point));
+    crate::validate(&request, "nav")?;
+    let nav_timeout = match args.nav_timeout {
+        None => None,
+        Some(seconds) => Some(
+            Duration::try_from_secs_f64(seconds)
+                .ok()
+                .filter(|d| !d.is_zero())
+                .ok_or_else(|| {
+                    Error::Usage(format!(
+                        "nav: --nav-timeout {seconds} is not a positive number of seconds; nothing sent"
+                    ))
+                })?,
+        ),
+    };
+
+    let mut conn = ctx.connect()?;
+    let message_id = conn.send(&request)?;
+    if !ctx.json {
+        note(&format!(
+            "x30ctl: navigation task sent ({}); waiting until the robot has finished it (Ctrl-C cancels)",
+            render::nav_point_text(&point)
+        ));
+    }
+
+    let mut cancel: Option<Cancel> = None;
+    let result = conn.wait(message_id, MessageType::NavTask, |waited| {
+        let presses = interrupts.count();
+        if presses >= 2 {
+            return Check::Abort(Error::Interrupted(
+                "interrupted twice: gave up waiting; closing the task connection, which makes the robot stop the task (ErrorStatus 41802)".to_owned(),
+            ));
+        }
+        if cancel.is_none() {
+            let reason = if presses == 1 {
+                Some(Reason::Interrupted)
+            } else {
+                nav_timeout
+                    .filter(|&limit| waited >= limit)
+                    .map(Reason::TimedOut)
+            };
+            cancel = reason.map(|reason| Cancel::start(ctx, reason));
+        }
+        let Some(cancel) = &mut cancel else {
+            // The documented unbounded wait: a task may take many minutes.
+            return Check::Wait(None);
+        };
+        let deadline = cancel.deadline;
+        match cancel.poll() {
+            Some(Err(e)) => Check::Abort(Error::Interrupted(format!(
+                "cancelling the navigation task failed ({e}); closing the task connection, which makes the robot stop the task (ErrorStatus 41802)"
+            ))),
+            Some(Ok(answer)) => match render::failure("cancel", &answer.response) {
+                Some(message) => Check::Abort(Error::Failed(format!(
+                    "{message}; the navigation task may still be running"
+                ))),
+                None => Check::Wait(Some(deadline)),
+            },
+            None => Check::Wait(Some(deadline)),
+        }
+    });
+
+    let answer = match result {
+        Ok(answer) => answer,
+        Err(e) => {
+            if let Some(mut cancel) = cancel {
+                // Report the 1004 answer if it is in, but do not wait for it: a second
+                // Ctrl-C means "give up at once".
+                if let Some(Ok(cancel_answer)) = cancel.poll() {
+                    ctx.print(cancel_answer);
+                }
+                if matches!(e, Error::Timeout { .. }) {
+                    note("x30ctl: the robot did not send the cancelled Type 1003 answer");
+                }
+            }
+            return Err(e);
+        }
+    };
+    ctx.print(&answer);
+    let Response::NavResult(outcome) = answer.response else {
+        // conn.wait only returns answers of the request's Type.
+        return Err(Error::BadAnswer {
+            message_type: MessageType::NavTask.raw(),
+            message_id: answer.message_id,
+            detail: "not a navigation result".to_owned(),
+        });
+    };
+
+    if let Some(cancel) = cancel {
+        let reason = cancel.reason;
+        match cancel.finish() {
+            Ok(cancel_answer) => ctx.print(&cancel_answer),
+            Err(e) => note(&format!("x30ctl: cancel (Type 1004): {e}")),
+        }
+        if outcome.outcome == NavOutcome::Cancelled {
+            return Err(match reason {
+                Reason::Interrupted => Error::Interrupted(format!(
+                    "navigation task cancelled by Ctrl-C: ErrorStatus {}, \"{}\"",
+                    outcome.status.raw(),
+                    outcome.status.description()
+                )),
+                Reason::TimedOut(after) => {
+                    note(&format!(
+                        "x30ctl: navigation task cancelled after --nav-timeout: ErrorStatus {}, \"{}\"",
+                        outcome.status.raw(),
+                        outcome.status.description()
+                    ));
+                    Error::Timeout {
+                        waited: after,
+                        message_type: MessageType::NavTask.raw(),
+                    }
+                }
+            });
+        }
+    }
+    match render::failure("nav", &answer.response) {
+        Some(message) => Err(Error::Failed(message)),
+        None => Ok(()),
+    }
+}

@@ -1,0 +1,1057 @@
+//! Human-readable and JSON output of answers and requests, and readable text for the core's
+//! error enums.
+//!
+//! Floats are printed with Rust's shortest round-trip form (`{}` and serde_json), never
+//! with a fixed number of digits: existing clients lose position precision by printing
+//! six significant digits (SPEC §6).
+//!
+//! Nothing here panics when stdout or stderr is closed: `println!` would, so every write
+//! goes through [`emit`] and [`note`], which drop write errors.
+
+use std::fmt::{self, Write as _};
+use std::io::{self, Write as _};
+
+use serde::Serialize;
+use x30_panel::proto::codes::*;
+use x30_panel::proto::message::{
+    Battery, CommandAck, DecodeError, Light, MotionAck, MotionCommand, MotionValue,
+    MotorTemperatures, NavPoint, NavResult, NavTaskState, Perception, Relocalize, RelocalizeAck,
+    Request, RequestError, Response, RobotStatus, ValidationError,
+};
+use x30_panel::proto::time::{TIME_TEXT_LEN, Timestamp};
+use x30_panel::proto::xml::StructureError;
+use x30_panel::proto::xml::number::NumberError;
+use x30_panel::proto::xml::reader::XmlErrorKind;
+
+/// Writes one line to stdout; a closed stdout is not worth a panic.
+pub fn emit(line: &str) {
+    let mut out = io::stdout().lock();
+    let _ = writeln!(out, "{line}");
+    let _ = out.flush();
+}
+
+/// Writes one line to stderr (errors, warnings, progress).
+pub fn note(line: &str) {
+    let _ = writeln!(io::stderr().lock(), "{line}");
+}
+
+/// Writes a warning to stderr, prefixed so it is not mistaken for an answer.
+pub fn warn(line: &str) {
+    note(&format!("x30ctl: warning: {line}"));
+}
+
+/// JSON text of a value; serialising these plain structs cannot fail, but a failure would
+/// still produce valid JSON rather than a panic.
+pub fn json_line<T: Serialize>(value: &T) -> String {
+    serde_json::to_string(value).unwrap_or_else(|e| format!("{{\"error\":{:?}}}", e.to_string()))
+}
+
+/// `YYYY-MM-DD HH:MM:SS`.
+pub fn time_text(time: &Timestamp) -> String {
+    let mut text = [0u8; TIME_TEXT_LEN];
+    time.encode(&mut text);
+    String::from_utf8_lossy(&text).into_owned()
+}
+
+/// A coded enum of the protocol core: every one has `raw` and `description`.
+pub trait Coded: Copy + fmt::Debug {
+    /// The code as on the wire.
+    fn code(self) -> i32;
+    /// The document's meaning.
+    fn meaning(self) -> &'static str;
+}
+
+macro_rules! coded {
+    ($($t:ty),* $(,)?) => {$(
+        impl Coded for $t {
+            fn code(self) -> i32 { self.raw() }
+            fn meaning(self) -> &'static str { self.description() }
+        }
+    )*};
+}
+
+coded!(
+    MessageType,
+    MotionCommandCode,
+    MotionState,
+    GaitState,
+    NavGait,
+    MotionGait,
+    PointInfo,
+    NavSpeed,
+    Manner,
+    ObsMode,
+    NavMode,
+    Terrain,
+    Posture,
+    Location,
+    MotorState,
+    ChargeState,
+    ControlMode,
+    OnDockState,
+    NavOutcome,
+    ErrorStatus,
+    NavTaskStatus,
+    LightEffect,
+    RequestErrorCode,
+    CommandResult,
+    LocalizationResult,
+    ObsState,
+    ProtectedState,
+);
+
+/// A code in JSON: `{"code": 41730, "name": "BatteryTooLow", "description": "battery too low"}`.
+#[derive(Debug, Serialize)]
+pub struct CodeJson {
+    /// The number on the wire.
+    pub code: i32,
+    /// The core's variant name; `Unknown` for a code protocol V1.0.12 does not define.
+    pub name: String,
+    /// The document's meaning.
+    pub description: &'static str,
+}
+
+/// The JSON form of a code.
+pub fn code_json<T: Coded>(value: T) -> CodeJson {
+    let debug = format!("{value:?}");
+    let name = debug.split('(').next().unwrap_or_default().to_owned();
+    CodeJson {
+        code: value.code(),
+        name,
+        description: value.meaning(),
+    }
+}
+
+/// `meaning (code)`, the human form of a code.
+pub fn code_text<T: Coded>(value: T) -> String {
+    format!("{} ({})", value.meaning(), value.code())
+}
+
+// ---------------------------------------------------------------------------------------
+// Answers
+// ---------------------------------------------------------------------------------------
+
+/// A short stable name for each kind of answer (the `kind` field of the JSON).
+pub fn response_kind(response: &Response) -> &'static str {
+    match response {
+        Response::Status(_) => "status",
+        Response::NavResult(_) => "nav_result",
+        Response::CancelNav(_) => "cancel_nav",
+        Response::NavStatus(_) => "nav_status",
+        Response::MotorTemperatures(_) => "motor_temperatures",
+        Response::Light(_) => "light",
+        Response::Motion(..) => "motion",
+        Response::Battery(_) => "battery",
+        Response::Perception(_) => "perception",
+        Response::Relocalize(_) => "relocalize",
+        Response::RequestError(_) => "request_error",
+    }
+}
+
+/// One answer as JSON: the envelope and the items, flattened into one object.
+#[derive(Debug, Serialize)]
+pub struct AnswerJson {
+    /// See [`response_kind`].
+    pub kind: &'static str,
+    /// The message Type.
+    #[serde(rename = "type")]
+    pub message_type: i32,
+    /// The `Command`.
+    pub command: i32,
+    /// The frame's message ID.
+    pub message_id: u16,
+    /// The robot's `Time`.
+    pub time: String,
+    /// The items.
+    #[serde(flatten)]
+    pub body: ResponseJson,
+}
+
+/// The items of an answer.
+#[derive(Debug, Serialize)]
+#[serde(untagged)]
+#[allow(missing_docs)]
+pub enum ResponseJson {
+    Status(Box<StatusJson>),
+    NavResult(NavResultJson),
+    Ack(AckJson),
+    NavStatus(NavStatusJson),
+    Motors(MotorsJson),
+    Motion(MotionJson),
+    Battery(BatteryJson),
+    Perception(PerceptionJson),
+    Relocalize(AckJson),
+    RequestError(AckJson),
+}
+
+/// Type 1002 items.
+#[derive(Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct StatusJson {
+    /// True when every item is 0: status unavailable, not a robot at the origin.
+    pub unavailable: bool,
+    pub motion_state: CodeJson,
+    pub pos_x: f32,
+    pub pos_y: f32,
+    pub pos_z: f32,
+    pub roll: f32,
+    pub pitch: f32,
+    pub yaw: f32,
+    pub speed: f32,
+    pub cur_odom: f32,
+    pub sum_odom: f32,
+    pub res: f32,
+    pub x0: f32,
+    pub y0: f32,
+    pub h: i32,
+    pub electricity: i32,
+    pub location: CodeJson,
+    pub gait_state: CodeJson,
+    pub motor_state: CodeJson,
+    pub charge_state: CodeJson,
+    pub control_mode: CodeJson,
+    pub on_dock_state: CodeJson,
+    /// The position in map-image pixels, when `res` allows the conversion.
+    pub map_pixel: Option<PixelJson>,
+}
+
+/// A map-image pixel.
+#[derive(Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct PixelJson {
+    pub x: i32,
+    pub y: i32,
+}
+
+/// Type 1003 answer items.
+#[derive(Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct NavResultJson {
+    pub value: i32,
+    pub error_code: CodeJson,
+    pub error_status: CodeJson,
+}
+
+/// An answer carrying only `ErrorCode` (1004, 1101, 2101, Type 0).
+#[derive(Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct AckJson {
+    pub error_code: CodeJson,
+}
+
+/// Type 1007 answer items.
+#[derive(Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct NavStatusJson {
+    pub value: i32,
+    pub status: CodeJson,
+    pub error_code: CodeJson,
+}
+
+/// Type 1008 answer items, °C.
+#[derive(Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct MotorsJson {
+    pub left_front_sway: f32,
+    pub left_front_hip: f32,
+    pub left_front_knee: f32,
+    pub right_front_sway: f32,
+    pub right_front_hip: f32,
+    pub right_front_knee: f32,
+    pub left_back_sway: f32,
+    pub left_back_hip: f32,
+    pub left_back_knee: f32,
+    pub right_back_sway: f32,
+    pub right_back_hip: f32,
+    pub right_back_knee: f32,
+    /// The hottest of the twelve.
+    pub max: f32,
+}
+
+/// Type 2 answer items.
+#[derive(Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct MotionJson {
+    pub motion_command: CodeJson,
+    pub value: f32,
+    pub error_code: CodeJson,
+}
+
+/// Type 2001 answer items, in the document's units.
+#[derive(Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct BatteryJson {
+    pub voltage: i32,
+    /// Units of 10 mA.
+    pub current: i32,
+    /// Units of 10 mAh.
+    pub remaining_capacity: i32,
+    /// Units of 10 mAh.
+    pub nominal_capacity: i32,
+    pub cycles: i32,
+    pub protected_state: CodeJson,
+    pub battery_level: i32,
+    /// °C; null when the robot does not report it (before V1.0.11).
+    pub battery_temperature: Option<f32>,
+}
+
+/// Type 2002 answer items.
+#[derive(Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct PerceptionJson {
+    pub obs_state: CodeJson,
+}
+
+/// The JSON object of an answer.
+pub fn answer_json(message_id: u16, time: &Timestamp, response: &Response) -> AnswerJson {
+    AnswerJson {
+        kind: response_kind(response),
+        message_type: response.message_type().raw(),
+        command: response.command(),
+        message_id,
+        time: time_text(time),
+        body: response_json(response),
+    }
+}
+
+/// The items of an answer as JSON.
+pub fn response_json(response: &Response) -> ResponseJson {
+    match response {
+        Response::Status(s) => ResponseJson::Status(Box::new(status_json(s))),
+        Response::NavResult(r) => ResponseJson::NavResult(NavResultJson {
+            value: r.value,
+            error_code: code_json(r.outcome),
+            error_status: code_json(r.status),
+        }),
+        Response::CancelNav(a) | Response::Light(a) => ResponseJson::Ack(AckJson {
+            error_code: code_json(a.result),
+        }),
+        Response::NavStatus(s) => ResponseJson::NavStatus(NavStatusJson {
+            value: s.value,
+            status: code_json(s.status),
+            error_code: code_json(s.error_code),
+        }),
+        Response::MotorTemperatures(m) => ResponseJson::Motors(motors_json(m)),
+        Response::Motion(code, ack) => ResponseJson::Motion(MotionJson {
+            motion_command: code_json(*code),
+            value: ack.value,
+            error_code: code_json(ack.result),
+        }),
+        Response::Battery(b) => ResponseJson::Battery(BatteryJson {
+            voltage: b.voltage,
+            current: b.current,
+            remaining_capacity: b.remaining_capacity,
+            nominal_capacity: b.nominal_capacity,
+            cycles: b.cycles,
+            protected_state: code_json(b.protected_state),
+            battery_level: b.battery_level,
+            battery_temperature: b.battery_temperature,
+        }),
+        Response::Perception(p) => ResponseJson::Perception(PerceptionJson {
+            obs_state: code_json(p.obs_state),
+        }),
+        Response::Relocalize(a) => ResponseJson::Relocalize(AckJson {
+            error_code: code_json(a.result),
+        }),
+        Response::RequestError(e) => ResponseJson::RequestError(AckJson {
+            error_code: code_json(e.code),
+        }),
+    }
+}
+
+fn status_json(s: &RobotStatus) -> StatusJson {
+    StatusJson {
+        unavailable: s.is_unavailable(),
+        motion_state: code_json(s.motion_state),
+        pos_x: s.pos_x,
+        pos_y: s.pos_y,
+        pos_z: s.pos_z,
+        roll: s.roll,
+        pitch: s.pitch,
+        yaw: s.yaw,
+        speed: s.speed,
+        cur_odom: s.cur_odom,
+        sum_odom: s.sum_odom,
+        res: s.res,
+        x0: s.x0,
+        y0: s.y0,
+        h: s.h,
+        electricity: s.electricity,
+        location: code_json(s.location),
+        gait_state: code_json(s.gait_state),
+        motor_state: code_json(s.motor_state),
+        charge_state: code_json(s.charge_state),
+        control_mode: code_json(s.control_mode),
+        on_dock_state: code_json(s.on_dock_state),
+        map_pixel: map_pixel(s).map(|(x, y)| PixelJson { x, y }),
+    }
+}
+
+fn motors_json(m: &MotorTemperatures) -> MotorsJson {
+    MotorsJson {
+        left_front_sway: m.left_front_sway,
+        left_front_hip: m.left_front_hip,
+        left_front_knee: m.left_front_knee,
+        right_front_sway: m.right_front_sway,
+        right_front_hip: m.right_front_hip,
+        right_front_knee: m.right_front_knee,
+        left_back_sway: m.left_back_sway,
+        left_back_hip: m.left_back_hip,
+        left_back_knee: m.left_back_knee,
+        right_back_sway: m.right_back_sway,
+        right_back_hip: m.right_back_hip,
+        right_back_knee: m.right_back_knee,
+        max: m.max(),
+    }
+}
+
+/// The robot's position in map-image pixels, if the status is available and `Res` usable.
+fn map_pixel(s: &RobotStatus) -> Option<(i32, i32)> {
+    if s.is_unavailable() {
+        return None;
+    }
+    s.map_image().to_pixel(s.pos_x, s.pos_y)
+}
+
+/// The line printed for an unavailable status.
+pub const STATUS_UNAVAILABLE: &str = "status unavailable (all items 0): the robot could not read its status, or its navigation program is not running";
+
+/// Aligned `label  value` lines.
+struct Table {
+    text: String,
+}
+
+impl Table {
+    fn new() -> Self {
+        Self {
+            text: String::new(),
+        }
+    }
+
+    fn row(&mut self, label: &str, value: impl fmt::Display) -> &mut Self {
+        if !self.text.is_empty() {
+            self.text.push('\n');
+        }
+        let _ = write!(self.text, "{label:<14} {value}");
+        self
+    }
+
+    fn finish(&mut self) -> String {
+        std::mem::take(&mut self.text)
+    }
+}
+
+/// The human-readable form of an answer: one line for acknowledgements, a table for
+/// status-like answers.
+pub fn response_text(response: &Response) -> String {
+    match response {
+        Response::Status(s) => status_text(s),
+        Response::NavResult(r) => nav_result_text(r),
+        Response::CancelNav(a) => format!(
+            "cancel navigation task: {} (ErrorCode {})",
+            a.result.description(),
+            a.result.raw()
+        ),
+        Response::NavStatus(s) => nav_status_text(s),
+        Response::MotorTemperatures(m) => motors_text(m),
+        Response::Light(a) => format!(
+            "indicator light: {} (ErrorCode {})",
+            a.result.description(),
+            a.result.raw()
+        ),
+        Response::Motion(code, ack) => motion_ack_text(*code, ack),
+        Response::Battery(b) => battery_text(b),
+        Response::Perception(p) => perception_text(p),
+        Response::Relocalize(a) => relocalize_text(a),
+        Response::RequestError(e) => request_error_text(e),
+    }
+}
+
+fn status_text(s: &RobotStatus) -> String {
+    if s.is_unavailable() {
+        return STATUS_UNAVAILABLE.to_owned();
+    }
+    let pixel = match map_pixel(s) {
+        Some((x, y)) => format!(" (map pixel {x}, {y})"),
+        None => String::new(),
+    };
+    Table::new()
+        .row("motion state", code_text(s.motion_state))
+        .row(
+            "position",
+            format_args!("x {} m, y {} m, z {} m{pixel}", s.pos_x, s.pos_y, s.pos_z),
+        )
+        .row(
+            "attitude",
+            format_args!(
+                "roll {} rad, pitch {} rad, yaw {} rad",
+                s.roll, s.pitch, s.yaw
+            ),
+        )
+        .row("speed", format_args!("{} m/s", s.speed))
+        .row(
+            "odometry",
+            format_args!("{} km since power-on, {} km total", s.cur_odom, s.sum_odom),
+        )
+        .row("battery", format_args!("{} %", s.electricity))
+        .row("gait", code_text(s.gait_state))
+        .row("localisation", code_text(s.location))
+        .row("motors", code_text(s.motor_state))
+        .row("charging", code_text(s.charge_state))
+        .row("dock", code_text(s.on_dock_state))
+        .row("control mode", code_text(s.control_mode))
+        .row(
+            "map image",
+            format_args!(
+                "{} m/px, bottom-left corner at x {} m, y {} m, {} px high",
+                s.res, s.x0, s.y0, s.h
+            ),
+        )
+        .finish()
+}
+
+/// One line describing how a navigation task ended.
+pub fn nav_result_text(r: &NavResult) -> String {
+    format!(
+        "navigation to point {}: {} (ErrorCode {}), {} (ErrorStatus {})",
+        r.value,
+        r.outcome.description(),
+        r.outcome.raw(),
+        r.status.description(),
+        r.status.raw()
+    )
+}
+
+fn nav_status_text(s: &NavTaskState) -> String {
+    let mut text = format!(
+        "navigation task status: point {}, {} (Status {})",
+        s.value,
+        s.status.description(),
+        s.status.raw()
+    );
+    if s.error_code != s.status {
+        let _ = write!(text, ", ErrorCode {}", s.error_code.raw());
+    }
+    text
+}
+
+fn motors_text(m: &MotorTemperatures) -> String {
+    let leg =
+        |sway: f32, hip: f32, knee: f32| format!("sway {sway} °C, hip {hip} °C, knee {knee} °C");
+    Table::new()
+        .row(
+            "left front",
+            leg(m.left_front_sway, m.left_front_hip, m.left_front_knee),
+        )
+        .row(
+            "right front",
+            leg(m.right_front_sway, m.right_front_hip, m.right_front_knee),
+        )
+        .row(
+            "left back",
+            leg(m.left_back_sway, m.left_back_hip, m.left_back_knee),
+        )
+        .row(
+            "right back",
+            leg(m.right_back_sway, m.right_back_hip, m.right_back_knee),
+        )
+        .row("hottest", format_args!("{} °C", m.max()))
+        .finish()
+}
+
+/// A Type 2 `Value` as the user thinks of it.
+fn motion_value_text(code: MotionCommandCode, value: f32) -> String {
+    match code {
+        MotionCommandCode::SwitchGait => {
+            let gait = MotionGait::from_raw(value as i32);
+            format!("gait {}", code_text(gait))
+        }
+        MotionCommandCode::Forward
+        | MotionCommandCode::Backward
+        | MotionCommandCode::StrafeLeft
+        | MotionCommandCode::StrafeRight => speed_text(value, "m/s"),
+        MotionCommandCode::TurnLeft | MotionCommandCode::TurnRight => speed_text(value, "rad/s"),
+        _ => format!("Value {value}"),
+    }
+}
+
+fn speed_text(value: f32, unit: &str) -> String {
+    if value == -1.0 {
+        "the robot's default speed".to_owned()
+    } else {
+        format!("{value} {unit}")
+    }
+}
+
+fn motion_ack_text(code: MotionCommandCode, ack: &MotionAck) -> String {
+    format!(
+        "{} (Type 2 Command {}, {}): {} (ErrorCode {})",
+        code.description(),
+        code.raw(),
+        motion_value_text(code, ack.value),
+        ack.result.description(),
+        ack.result.raw()
+    )
+}
+
+fn battery_text(b: &Battery) -> String {
+    let temperature = match b.battery_temperature {
+        Some(t) => format!("{t} °C"),
+        None => "not reported".to_owned(),
+    };
+    Table::new()
+        .row("level", format_args!("{} %", b.battery_level))
+        .row("voltage", format_args!("{} V", b.voltage))
+        .row(
+            "current",
+            format_args!("{} A ({} x 10 mA)", f64::from(b.current) / 100.0, b.current),
+        )
+        .row(
+            "capacity",
+            format_args!(
+                "{} Ah remaining of {} Ah nominal",
+                f64::from(b.remaining_capacity) / 100.0,
+                f64::from(b.nominal_capacity) / 100.0
+            ),
+        )
+        .row("cycles", b.cycles)
+        .row("protection", code_text(b.protected_state))
+        .row("temperature", temperature)
+        .finish()
+}
+
+fn perception_text(p: &Perception) -> String {
+    format!(
+        "obstacle: {} (ObsState {})",
+        p.obs_state.description(),
+        p.obs_state.raw()
+    )
+}
+
+fn relocalize_text(a: &RelocalizeAck) -> String {
+    format!(
+        "initialise localisation: {} (ErrorCode {})",
+        a.result.description(),
+        a.result.raw()
+    )
+}
+
+fn request_error_text(e: &RequestError) -> String {
+    format!(
+        "request error (Type 0): ErrorCode {} ({})",
+        e.code.raw(),
+        e.code.description()
+    )
+}
+
+/// Whether an answer reports that the request failed, and the message for stderr.
+///
+/// `what` names the command for the message (`light`, `cancel`, ...).
+pub fn failure(what: &str, response: &Response) -> Option<String> {
+    let ack_failed = |a: &CommandAck| {
+        (!a.result.is_success()).then(|| {
+            format!(
+                "{what} failed: ErrorCode {}, \"{}\"",
+                a.result.raw(),
+                a.result.description()
+            )
+        })
+    };
+    match response {
+        Response::NavResult(r) if !r.outcome.is_success() => Some(format!(
+            "{what} {}: ErrorStatus {}, \"{}\"",
+            match r.outcome {
+                NavOutcome::Cancelled => "cancelled",
+                _ => "failed",
+            },
+            r.status.raw(),
+            r.status.description()
+        )),
+        Response::CancelNav(a) | Response::Light(a) => ack_failed(a),
+        Response::Motion(code, ack) if !ack.result.is_success() => Some(format!(
+            "{what} failed: the robot refused {} (Type 2 Command {}): ErrorCode {}, \"{}\"",
+            code.description(),
+            code.raw(),
+            ack.result.raw(),
+            ack.result.description()
+        )),
+        Response::Relocalize(a) if a.result != LocalizationResult::Localized => Some(format!(
+            "{what} failed: ErrorCode {}, \"{}\"",
+            a.result.raw(),
+            a.result.description()
+        )),
+        _ => None,
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Requests (for `decode`)
+// ---------------------------------------------------------------------------------------
+
+/// A request as JSON, for `decode`.
+#[derive(Debug, Serialize)]
+pub struct RequestJson {
+    /// A short stable name: status, nav_task, cancel_nav, nav_status, motor_temperatures,
+    /// light, motion, battery, perception, relocalize.
+    pub kind: &'static str,
+    /// The message Type.
+    #[serde(rename = "type")]
+    pub message_type: i32,
+    /// The `Command`.
+    pub command: i32,
+    /// The items.
+    #[serde(flatten)]
+    pub body: RequestBodyJson,
+}
+
+/// The items of a request.
+#[derive(Debug, Serialize)]
+#[serde(untagged)]
+#[allow(missing_docs)]
+pub enum RequestBodyJson {
+    Empty {},
+    NavTask {
+        points: Vec<NavPointJson>,
+    },
+    Motion {
+        motion_command: CodeJson,
+        value: MotionValueJson,
+    },
+    Light(LightJson),
+    Relocalize(RelocalizeJson),
+}
+
+/// A Type 2 `Value`: a float, or a gait code for Command 20.
+#[derive(Debug, Serialize)]
+#[serde(untagged)]
+#[allow(missing_docs)]
+pub enum MotionValueJson {
+    Float(f32),
+    Gait(CodeJson),
+}
+
+/// One 1003 point.
+#[derive(Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct NavPointJson {
+    pub value: i32,
+    pub map_id: i32,
+    pub pos_x: f32,
+    pub pos_y: f32,
+    pub pos_z: f32,
+    pub angle_yaw: f32,
+    pub point_info: CodeJson,
+    pub gait: CodeJson,
+    pub speed: CodeJson,
+    pub manner: CodeJson,
+    pub obs_mode: CodeJson,
+    pub nav_mode: CodeJson,
+    pub terrain: CodeJson,
+    pub posture: CodeJson,
+}
+
+/// 1101 request items.
+#[derive(Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct LightJson {
+    pub red: u8,
+    pub green: u8,
+    pub blue: u8,
+    pub effect: CodeJson,
+    pub brightness: u8,
+}
+
+/// 2101 request items.
+#[derive(Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct RelocalizeJson {
+    pub pos_x: f32,
+    pub pos_y: f32,
+    pub pos_z: f32,
+    pub yaw: f32,
+}
+
+fn request_kind(request: &Request) -> &'static str {
+    match request {
+        Request::Status => "status",
+        Request::NavTask(_) => "nav_task",
+        Request::CancelNav => "cancel_nav",
+        Request::NavStatus => "nav_status",
+        Request::MotorTemperatures => "motor_temperatures",
+        Request::Light(_) => "light",
+        Request::Motion(_) => "motion",
+        Request::Battery => "battery",
+        Request::Perception => "perception",
+        Request::Relocalize(_) => "relocalize",
+    }
+}
+
+fn nav_point_json(p: &NavPoint) -> NavPointJson {
+    NavPointJson {
+        value: p.value,
+        map_id: p.map_id,
+        pos_x: p.pos_x,
+        pos_y: p.pos_y,
+        pos_z: p.pos_z,
+        angle_yaw: p.angle_yaw,
+        point_info: code_json(p.point_info),
+        gait: code_json(p.gait),
+        speed: code_json(p.speed),
+        manner: code_json(p.manner),
+        obs_mode: code_json(p.obs_mode),
+        nav_mode: code_json(p.nav_mode),
+        terrain: code_json(p.terrain),
+        posture: code_json(p.posture),
+    }
+}
+
+/// The JSON object of a request.
+pub fn request_json(request: &Request) -> RequestJson {
+    let body = match request {
+        Request::NavTask(task) => RequestBodyJson::NavTask {
+            points: task.points.iter().map(nav_point_json).collect(),
+        },
+        Request::Motion(m) => RequestBodyJson::Motion {
+            motion_command: code_json(m.code()),
+            value: match m.value() {
+                MotionValue::Float(v) => MotionValueJson::Float(v),
+                MotionValue::Int(v) => MotionValueJson::Gait(code_json(MotionGait::from_raw(v))),
+            },
+        },
+        Request::Light(l) => RequestBodyJson::Light(LightJson {
+            red: l.red,
+            green: l.green,
+            blue: l.blue,
+            effect: code_json(l.effect),
+            brightness: l.brightness,
+        }),
+        Request::Relocalize(r) => RequestBodyJson::Relocalize(RelocalizeJson {
+            pos_x: r.pos_x,
+            pos_y: r.pos_y,
+            pos_z: r.pos_z,
+            yaw: r.yaw,
+        }),
+        _ => RequestBodyJson::Empty {},
+    };
+    RequestJson {
+        kind: request_kind(request),
+        message_type: request.message_type().raw(),
+        command: request.command(),
+        body,
+    }
+}
+
+/// One line describing a 1003 point.
+pub fn nav_point_text(p: &NavPoint) -> String {
+    format!(
+        "point {} on map {} at x {} m, y {} m, z {} m, yaw {} rad; {}; gait {}; speed {}; {}; {}; {}; {}; {}",
+        p.value,
+        p.map_id,
+        p.pos_x,
+        p.pos_y,
+        p.pos_z,
+        p.angle_yaw,
+        code_text(p.point_info),
+        code_text(p.gait),
+        code_text(p.speed),
+        code_text(p.manner),
+        code_text(p.obs_mode),
+        code_text(p.nav_mode),
+        code_text(p.terrain),
+        code_text(p.posture),
+    )
+}
+
+fn light_text(l: &Light) -> String {
+    format!(
+        "indicator light: red {}, green {}, blue {}, {}, brightness {} %",
+        l.red,
+        l.green,
+        l.blue,
+        code_text(l.effect),
+        l.brightness
+    )
+}
+
+fn relocalize_request_text(r: &Relocalize) -> String {
+    format!(
+        "initialise localisation at x {} m, y {} m, z {} m, yaw {} rad",
+        r.pos_x, r.pos_y, r.pos_z, r.yaw
+    )
+}
+
+fn motion_request_text(m: &MotionCommand) -> String {
+    let value = match m.value() {
+        MotionValue::Float(v) => motion_value_text(m.code(), v),
+        MotionValue::Int(v) => format!("gait {}", code_text(MotionGait::from_raw(v))),
+    };
+    format!(
+        "motion: {} (Command {}), {value}",
+        m.code().description(),
+        m.code().raw()
+    )
+}
+
+/// The human-readable form of a request.
+pub fn request_text(request: &Request) -> String {
+    match request {
+        Request::NavTask(task) => {
+            let mut text = String::from("navigation task:");
+            for point in &task.points {
+                let _ = write!(text, "\n  {}", nav_point_text(point));
+            }
+            text
+        }
+        Request::Motion(m) => motion_request_text(m),
+        Request::Light(l) => light_text(l),
+        Request::Relocalize(r) => relocalize_request_text(r),
+        other => format!("{} request (no items)", other.message_type().description()),
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// The core's error enums, as text
+// ---------------------------------------------------------------------------------------
+
+fn number_text(e: &NumberError) -> &'static str {
+    match e {
+        NumberError::Empty => "empty",
+        NumberError::Invalid => "not a decimal number",
+        NumberError::OutOfRange => "out of range",
+        NumberError::NotFinite => "not finite",
+        _ => "not a usable number",
+    }
+}
+
+fn xml_kind_text(kind: &XmlErrorKind) -> &'static str {
+    match kind {
+        XmlErrorKind::UnexpectedEnd => "the document ends inside markup or with elements open",
+        XmlErrorKind::NoRoot => "no root element",
+        XmlErrorKind::Dtd => "a DTD or entity declaration (refused)",
+        XmlErrorKind::Cdata => "a CDATA section (refused)",
+        XmlErrorKind::UnknownEntity => "an unknown entity reference",
+        XmlErrorKind::MismatchedTag => "an end tag that does not match the open element",
+        XmlErrorKind::TooDeep => "elements nested too deep",
+        XmlErrorKind::TrailingContent => "content after the root element",
+        XmlErrorKind::TextOutsideRoot => "text outside the root element",
+        XmlErrorKind::MalformedTag => "a malformed tag or name",
+        _ => "malformed XML",
+    }
+}
+
+/// Why a document's structure was rejected, as text.
+pub fn structure_error_text(e: &StructureError) -> String {
+    match e {
+        StructureError::Xml(x) => {
+            format!("XML error at byte {}: {}", x.offset, xml_kind_text(&x.kind))
+        }
+        StructureError::NotPatrolDevice => "the root element is not <PatrolDevice>".to_owned(),
+        StructureError::MissingElement(name) => format!("<{name}> is missing"),
+        StructureError::NotText(name) => format!("<{name}> holds elements, not text"),
+        StructureError::BadNumber(name, n) => format!("<{name}>: {}", number_text(n)),
+        StructureError::BadTime => "<Time> is not YYYY-MM-DD HH:MM:SS".to_owned(),
+        StructureError::TooManyItemsBlocks => "too many <Items> blocks".to_owned(),
+        other => format!("{other:?}"),
+    }
+}
+
+/// Why a body could not be decoded, as text.
+pub fn decode_error_text(e: &DecodeError) -> String {
+    match e {
+        DecodeError::Structure(s) => structure_error_text(s),
+        DecodeError::UnknownType(t) => {
+            format!("unknown Type {t} (not a Type of protocol V1.0.12)")
+        }
+        DecodeError::UnknownCommand(c) => format!("unknown Type 2 Command {c}"),
+        DecodeError::MissingItem(item) => format!("item <{item}> is missing"),
+        DecodeError::ItemNotText(item) => format!("item <{item}> holds elements, not a value"),
+        DecodeError::BadItem { item, error } => {
+            format!("item <{item}>: {}", number_text(error))
+        }
+        DecodeError::ItemsBlocks { found } => {
+            format!("{found} <Items> blocks where this message takes one")
+        }
+        other => format!("{other:?}"),
+    }
+}
+
+/// Why a request breaks the document's rules, as text.
+pub fn validation_error_text(e: &ValidationError) -> String {
+    match e {
+        ValidationError::SpeedOutOfRange { max } => {
+            format!("speed out of range: -1 (the robot's default) or 0..={max} allowed")
+        }
+        ValidationError::BrightnessOutOfRange => "brightness above 100 %".to_owned(),
+        ValidationError::UnknownCode { item } => {
+            format!("{item} holds a code protocol V1.0.12 does not define")
+        }
+        ValidationError::NotFinite { item } => format!("{item} is not a finite number"),
+        ValidationError::GaitNotAllowedOnTerrain => {
+            "terrain frame (accumulated frame) allows only the gaits frame-stairs and frame-stairs-45"
+                .to_owned()
+        }
+        ValidationError::GaitNotAllowedWhenCrouched => {
+            "posture crouched allows only the gaits walk and slope".to_owned()
+        }
+        ValidationError::NoPoints => "a navigation task needs a point".to_owned(),
+        other => format!("{other:?}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn code_json_names_known_and_unknown_codes() {
+        let known = code_json(ErrorStatus::BatteryTooLow);
+        assert_eq!(known.code, 41730);
+        assert_eq!(known.name, "BatteryTooLow");
+        assert_eq!(known.description, "battery too low");
+        let unknown = code_json(ErrorStatus::from_raw(12345));
+        assert_eq!(unknown.code, 12345);
+        assert_eq!(unknown.name, "Unknown");
+    }
+
+    #[test]
+    fn floats_keep_full_precision() {
+        let mut status = RobotStatus {
+            motion_state: MotionState::Stepping,
+            pos_x: -0.000_233_936_21,
+            pos_y: 123.456_79,
+            pos_z: 0.0,
+            roll: 0.0,
+            pitch: 0.0,
+            yaw: 0.0,
+            speed: 0.0,
+            cur_odom: 0.0,
+            sum_odom: 0.0,
+            res: 0.05,
+            x0: 0.0,
+            y0: 0.0,
+            h: 100,
+            electricity: 80,
+            location: Location::Localized,
+            gait_state: GaitState::Walk,
+            motor_state: MotorState::Normal,
+            charge_state: ChargeState::NotCharging,
+            control_mode: ControlMode::Manual,
+            on_dock_state: OnDockState::OffDock,
+        };
+        let text = response_text(&Response::Status(status));
+        assert!(text.contains("x -0.00023393621 m"), "{text}");
+        assert!(text.contains("y 123.45679 m"), "{text}");
+        let json = json_line(&answer_json(0, &Timestamp::ZERO, &Response::Status(status)));
+        assert!(json.contains("\"pos_x\":-0.00023393621"), "{json}");
+        status = RobotStatus {
+            motion_state: MotionState::LyingDown,
+            pos_x: 0.0,
+            pos_y: 0.0,
+            res: 0.0,
+            h: 0,
+            electricity: 0,
+            ..status
+        };
+        assert_eq!(response_text(&Response::Status(status)), STATUS_UNAVAILABLE);
+    }
+}

@@ -1,0 +1,456 @@
+//! x30ctl against a difficult robot: every fault the simulator can inject, Type 0 answers,
+//! refused connections, and `decode` of a messy capture.
+
+mod common;
+
+use std::io::{Read, Write};
+use std::net::TcpListener;
+use std::thread;
+use std::time::Duration;
+
+use common::*;
+use x30_panel::proto::codes::{ErrorStatus, NavOutcome, RequestErrorCode};
+use x30_panel::proto::frame::{self, HEADER_LEN};
+use x30_panel::proto::message::{NavResult, Request, RequestError, Response};
+use x30_panel::proto::time::Timestamp;
+use x30_sim::{Declaration, Faults};
+
+#[test]
+fn delay_shorter_than_the_timeout_succeeds_longer_times_out() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        delay: Duration::from_millis(400),
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["--timeout-ms", "150", "status"])
+        .expect_code(3)
+        .stderr_has("timed out after 150 ms waiting for the answer to Type 1002");
+    x30ctl(&sim, &["battery", "--timeout-ms", "150"])
+        .expect_code(3)
+        .stderr_has("timed out after 150 ms waiting for the answer to Type 2001");
+    x30ctl(&sim, &["--timeout-ms", "3000", "status"])
+        .expect_code(0)
+        .stdout_has("motion state");
+}
+
+#[test]
+fn drop_after_is_a_clear_connection_closed_error() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        drop_after: Some(1),
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["status"])
+        .expect_code(3)
+        .stderr_has("connection closed by the robot before answering Type 1002");
+    // The task connection dropping is reported the same way for a navigation task.
+    x30ctl(&sim, &["nav", "--map-id", "1", "--x", "5", "--y", "0"])
+        .expect_code(3)
+        .stderr_has("connection closed by the robot before answering Type 1003");
+    // A zero-velocity request after a dropped move goes on a new connection.
+    sim.set_faults(Faults {
+        drop_after: Some(2),
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["move", "forward", "--duration", "2"])
+        .expect_code(3)
+        .stderr_has("connection closed by the robot before answering Type 2");
+    let log = requests_of(&sim, 2, None);
+    let stop = log.last().expect("requests");
+    assert_eq!(stop.command, Some(6), "{log:?}");
+    assert_ne!(
+        stop.conn, log[0].conn,
+        "zero velocity on a fresh connection"
+    );
+}
+
+#[test]
+fn garbage_before_each_frame_is_skipped() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        garbage: true,
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["status"])
+        .expect_code(0)
+        .stdout_has("motion state   force-control stand (3)")
+        .stderr_has("skipped 8 bytes of garbage before a sync sequence");
+    x30ctl(&sim, &["watch", "--count", "2", "--interval-ms", "10"]).expect_code(0);
+}
+
+#[test]
+fn split_answers_are_reassembled() {
+    let sim = sim(1.0);
+    for chunk in [1, 3, 17] {
+        sim.set_faults(Faults {
+            split: Some(chunk),
+            ..Faults::default()
+        });
+        let run = x30ctl(&sim, &["battery", "--json"]);
+        assert_eq!(run.expect_code(0).json_lines()[0]["kind"], "battery");
+    }
+}
+
+#[test]
+fn merged_unsolicited_frames_do_not_confuse_answers() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        merge: true,
+        ..Faults::default()
+    });
+    // Each answer arrives with an extra 1002 frame whose ID no request has; on one
+    // connection the next request then finds it first.
+    let run = x30ctl(
+        &sim,
+        &["watch", "--count", "2", "--interval-ms", "10", "--json"],
+    );
+    let lines = run.expect_code(0).json_lines();
+    assert_eq!(lines.len(), 2);
+    for line in &lines {
+        assert_eq!(line["status"]["kind"], "status");
+        assert_eq!(line["battery"]["kind"], "battery");
+        assert_eq!(line["perception"]["kind"], "perception");
+    }
+    run_stderr_names_unsolicited(&run.stderr);
+    x30ctl(&sim, &["move", "forward", "--duration", "0.6"]).expect_code(0);
+}
+
+fn run_stderr_names_unsolicited(stderr: &str) {
+    assert!(
+        stderr.contains("ignored an unsolicited Type 1002 frame with message ID 32768"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn unknown_type_is_a_clear_error() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        unknown_type: true,
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["status"])
+        .expect_code(3)
+        .stderr_has("bad answer to Type 1002 (message ID 0): unknown Type 2102");
+    x30ctl(&sim, &["light", "--red", "1"])
+        .expect_code(3)
+        .stderr_has("unknown Type 2102");
+}
+
+#[test]
+fn unknown_items_are_skipped() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        unknown_items: true,
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["status"])
+        .expect_code(0)
+        .stdout_has("motion state   force-control stand (3)");
+    for command in [
+        "battery",
+        "obstacle",
+        "motors",
+        "nav-status",
+        "cancel",
+        "stop",
+    ] {
+        x30ctl(&sim, &[command]).expect_code(0);
+    }
+}
+
+#[test]
+fn every_declaration_style_decodes() {
+    let sim = sim(1.0);
+    for declaration in [Declaration::Single, Declaration::None, Declaration::Double] {
+        sim.set_faults(Faults {
+            declaration,
+            ..Faults::default()
+        });
+        let run = x30ctl(&sim, &["status", "--json"]);
+        assert_eq!(
+            run.expect_code(0).json_lines()[0]["motion_state"]["code"],
+            3,
+            "{declaration}"
+        );
+    }
+}
+
+#[test]
+fn all_faults_at_once() {
+    let sim = sim(20.0);
+    sim.set_faults(Faults {
+        delay: Duration::from_millis(20),
+        garbage: true,
+        split: Some(5),
+        merge: true,
+        unknown_items: true,
+        declaration: Declaration::Single,
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["nav", "--map-id", "1", "--x", "1", "--y", "0"])
+        .expect_code(0)
+        .stdout_has("ErrorStatus 8960");
+    x30ctl(&sim, &["watch", "--count", "2", "--interval-ms", "10"]).expect_code(0);
+}
+
+#[test]
+fn connection_refused_is_exit_3() {
+    let port = closed_port();
+    let robot = format!("127.0.0.1:{port}");
+    x30ctl_raw(&["--robot", &robot, "status"])
+        .expect_code(3)
+        .stderr_has(&format!("connection to {robot} failed: Connection refused"));
+    x30ctl_raw(&[
+        "--robot", &robot, "nav", "--map-id", "1", "--x", "1", "--y", "1",
+    ])
+    .expect_code(3)
+    .stderr_has("Connection refused");
+}
+
+/// A one-connection fake robot: answers the first request with `answer(message_id)`.
+fn fake_robot(answer: impl FnOnce(u16) -> Vec<u8> + Send + 'static) -> String {
+    let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+    let addr = listener.local_addr().expect("addr").to_string();
+    thread::spawn(move || {
+        let Ok((mut stream, _)) = listener.accept() else {
+            return;
+        };
+        let mut header = [0u8; HEADER_LEN];
+        if stream.read_exact(&mut header).is_err() {
+            return;
+        }
+        let len = usize::from(u16::from_le_bytes([header[4], header[5]]));
+        let mut body = vec![0; len];
+        if stream.read_exact(&mut body).is_err() {
+            return;
+        }
+        let id = u16::from_le_bytes([header[6], header[7]]);
+        let _ = stream.write_all(&answer(id));
+        // Keep the connection open until the client has read the answer and left.
+        let _ = stream.read(&mut [0u8; 1]);
+    });
+    addr
+}
+
+fn encode_response(id: u16, response: &Response) -> Vec<u8> {
+    let mut body = vec![0; 4096];
+    let n = response
+        .encode(&Timestamp::DOCUMENT_EPOCH, &mut body)
+        .expect("encode");
+    let mut out = vec![0; HEADER_LEN + n];
+    let n = frame::encode(&mut out, id, &body[..n]).expect("frame");
+    out.truncate(n);
+    out
+}
+
+#[test]
+fn type_0_answer_is_exit_3_naming_the_error_code() {
+    let addr = fake_robot(|id| {
+        encode_response(
+            id,
+            &Response::RequestError(RequestError {
+                code: RequestErrorCode::ParseFailed,
+            }),
+        )
+    });
+    x30ctl_raw(&["--robot", &addr, "status"])
+        .expect_code(3)
+        .stderr_has("robot answered Type 0: ErrorCode 4 (data parse failed)");
+}
+
+#[test]
+fn answer_of_the_wrong_type_is_reported() {
+    let addr = fake_robot(|id| {
+        encode_response(
+            id,
+            &Response::NavResult(NavResult {
+                value: 1,
+                outcome: NavOutcome::Succeeded,
+                status: ErrorStatus::TaskCompleted,
+            }),
+        )
+    });
+    x30ctl_raw(&["--robot", &addr, "battery"])
+        .expect_code(3)
+        .stderr_has("bad answer to Type 2001 (message ID 0): the answer has Type 1003");
+}
+
+#[test]
+fn unsolicited_and_garbled_frames_before_the_answer_are_skipped() {
+    let addr = fake_robot(|id| {
+        let mut bytes = b"\x00\xEB\x90noise".to_vec();
+        // A frame with non-zero reserved bytes, an undecodable frame, a stale answer.
+        let mut bad = encode_response(id.wrapping_add(5), &Response::Battery(battery()));
+        bad[10] = 1;
+        bytes.extend_from_slice(&bad);
+        let mut nonsense = vec![0; HEADER_LEN + 5];
+        let n = frame::encode(&mut nonsense, 77, b"<a/>x").expect("frame");
+        bytes.extend_from_slice(&nonsense[..n]);
+        bytes.extend_from_slice(&encode_response(
+            id.wrapping_add(1),
+            &Response::Battery(battery()),
+        ));
+        let mut real = battery();
+        real.battery_level = 33;
+        bytes.extend_from_slice(&encode_response(id, &Response::Battery(real)));
+        bytes
+    });
+    x30ctl_raw(&["--robot", &addr, "battery"])
+        .expect_code(0)
+        .stdout_has("level          33 %")
+        .stderr_has("skipped a frame header with non-zero reserved bytes")
+        .stderr_has("ignored an undecodable frame with message ID 77")
+        .stderr_has("ignored an unsolicited Type 2001 frame with message ID 1");
+}
+
+fn battery() -> x30_panel::proto::message::Battery {
+    x30_panel::proto::message::Battery {
+        voltage: 55,
+        current: 120,
+        remaining_capacity: 1500,
+        nominal_capacity: 2004,
+        cycles: 3,
+        protected_state: x30_panel::proto::codes::ProtectedState::Normal,
+        battery_level: 75,
+        battery_temperature: Some(31.5),
+    }
+}
+
+fn request_frame(id: u16, request: &Request) -> Vec<u8> {
+    let mut body = vec![0; 4096];
+    let n = request
+        .encode(&Timestamp::DOCUMENT_EPOCH, &mut body)
+        .expect("encode");
+    let mut out = vec![0; HEADER_LEN + n];
+    let n = frame::encode(&mut out, id, &body[..n]).expect("frame");
+    out.truncate(n);
+    out
+}
+
+/// Garbage, a 1002 request, an oversize frame (body included), then a failed 1003 answer.
+fn capture() -> Vec<u8> {
+    let mut bytes = b"\x13\x37garbage".to_vec();
+    bytes.extend_from_slice(&request_frame(4, &Request::Status));
+    let mut oversize = vec![0; HEADER_LEN];
+    let n = frame::encode(&mut oversize, 99, b"").expect("frame");
+    oversize.truncate(n);
+    oversize[4..6].copy_from_slice(&20_000u16.to_le_bytes());
+    oversize.extend(std::iter::repeat_n(b'x', 20_000));
+    bytes.extend_from_slice(&oversize);
+    bytes.extend_from_slice(&encode_response(
+        5,
+        &Response::NavResult(NavResult {
+            value: 12,
+            outcome: NavOutcome::Failed,
+            status: ErrorStatus::BatteryTooLow,
+        }),
+    ));
+    bytes
+}
+
+fn as_hex(bytes: &[u8]) -> String {
+    let mut text = String::from("# capture from a test\n");
+    for line in bytes.chunks(16) {
+        let words: Vec<String> = line.iter().map(|b| format!("0x{b:02X}")).collect();
+        text.push_str(&words.join(" "));
+        text.push('\n');
+    }
+    text
+}
+
+#[test]
+fn decode_hex_capture_with_garbage_and_an_oversize_frame() {
+    let bytes = capture();
+    let path = std::env::temp_dir().join(format!("x30ctl-capture-{}.hex", std::process::id()));
+    std::fs::write(&path, as_hex(&bytes)).expect("write capture");
+    let run = x30ctl_raw(&["decode", path.to_str().expect("utf-8 path")]);
+    let _ = std::fs::remove_file(&path);
+    run.expect_code(0)
+        .stdout_has("garbage at byte 0: 9 bytes without a sync sequence, skipped")
+        .stdout_has("frame 1 at byte 9: message ID 4")
+        .stdout_has("Type 1002 (real-time basic status), Command 1")
+        .stdout_has("real-time basic status request (no items)")
+        .stdout_has("oversize frame at byte")
+        .stdout_has("message ID 99, 20000-byte body")
+        .stdout_has("frame 2 at byte")
+        .stdout_has(
+            "navigation to point 12: failed (ErrorCode 1), battery too low (ErrorStatus 41730)",
+        )
+        .stdout_has("2 frame(s), 1 garbage run(s) (9 bytes), 0 bad header(s), 1 oversize frame(s)");
+}
+
+#[test]
+fn decode_raw_bytes_from_stdin_as_json() {
+    let mut bytes = capture();
+    // A truncated frame at the end.
+    let cut = request_frame(6, &Request::Battery);
+    bytes.extend_from_slice(&cut[..30]);
+    let run = spawn_raw(&["decode", "--json", "--xml"], Some(bytes)).finish(RUN_LIMIT);
+    let lines = run.expect_code(0).json_lines();
+    let events: Vec<&str> = lines.iter().filter_map(|l| l["event"].as_str()).collect();
+    assert_eq!(
+        events,
+        ["garbage", "frame", "oversize", "frame", "truncated"],
+        "{}",
+        run.stdout
+    );
+    assert_eq!(lines[1]["request"]["kind"], "status");
+    assert!(
+        lines[1]["xml"]
+            .as_str()
+            .is_some_and(|x| x.contains("<Type>1002</Type>"))
+    );
+    assert_eq!(lines[2]["asdu_len"], 20_000);
+    assert_eq!(lines[3]["response"]["error_status"]["code"], 41730);
+    assert_eq!(
+        lines[3]["response"]["error_status"]["name"],
+        "BatteryTooLow"
+    );
+    assert_eq!(lines[4]["present"], 30);
+}
+
+#[test]
+fn decode_rejects_bad_hex() {
+    let run =
+        spawn_raw(&["decode", "--format", "hex"], Some(b"eb 90 e".to_vec())).finish(RUN_LIMIT);
+    run.expect_code(2).stderr_has("odd number of hex digits");
+    x30ctl_raw(&["decode", "/nonexistent/capture.hex"])
+        .expect_code(2)
+        .stderr_has("cannot read /nonexistent/capture.hex");
+}
+
+#[test]
+fn move_ctrl_c_does_not_wait_for_a_slow_answer() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        delay: Duration::from_millis(1500),
+        ..Faults::default()
+    });
+    let moving = spawn(
+        &sim,
+        &[
+            "move",
+            "forward",
+            "--duration",
+            "10",
+            "--timeout-ms",
+            "5000",
+        ],
+    );
+    wait_for("the first forward command", Duration::from_secs(10), || {
+        !requests_of(&sim, 2, Some(1)).is_empty()
+    });
+    let interrupted = std::time::Instant::now();
+    moving.interrupt();
+    // Zero velocity is requested at once; only its own (delayed) answer is awaited.
+    wait_for("zero velocity", Duration::from_millis(700), || {
+        !requests_of(&sim, 2, Some(6)).is_empty()
+    });
+    let run = moving.finish(RUN_LIMIT);
+    run.expect_code(130)
+        .stderr_has("move interrupted by Ctrl-C after 0 command(s); zero velocity sent");
+    assert!(interrupted.elapsed() < Duration::from_secs(4));
+    // The late answer to the abandoned forward command is expected, not reported.
+    assert!(!run.stderr.contains("unsolicited"), "{}", run.stderr);
+}
