@@ -7,4 +7,8 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+#[macro_use]
+mod fmt;
+
+pub mod client;
 pub mod proto;

@@ -1,0 +1,71 @@
+//! The robot_server client: connections, requests and their answers.
+//!
+//! Generic over `embedded_io_async::{Read, Write}`: the firmware runs it over an embassy-net
+//! `TcpSocket`, host tests over a tokio `TcpStream` through `embedded-io-adapters`. It knows
+//! connections — message IDs, timeouts, Type 0 answers, reconnection, the wall-clock `Time`
+//! field — and never decides what to send; that is the panel's job.
+//!
+//! The panel keeps two [`Link`]s: a control link for every short request, and a navigation
+//! link that carries one 1003 and stays open until its answer, because the robot stops a
+//! task whose connection drops (ErrorStatus 41802).
+
+mod backoff;
+mod clock;
+mod link;
+
+pub use backoff::Backoff;
+pub use clock::RobotClock;
+pub use embedded_io_async::ErrorKind;
+pub use link::{Anomalies, Link, RX_BUF, TX_BUF, Transport};
+
+use crate::proto::codes::{MessageType, RequestErrorCode};
+use crate::proto::message::DecodeError;
+use crate::proto::xml::writer::WriteError;
+
+/// Why a request got no usable answer. [`ClientError::connection_usable`] says whether the
+/// link is still open for the next request.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum ClientError {
+    /// The link is not connected; nothing was sent.
+    NotConnected,
+    /// The transport failed; the connection is closed.
+    Io(ErrorKind),
+    /// The robot closed the connection before answering; the connection is closed.
+    Closed,
+    /// No answer in time. The connection stays open: a late answer is recognised by its
+    /// message ID and skipped.
+    Timeout,
+    /// The request could not be encoded; nothing was sent. The connection stays open.
+    Encode(WriteError),
+    /// The robot answered with Type 0: it could not read the request. The connection
+    /// stays open.
+    RequestError(RequestErrorCode),
+    /// The answer carried a Type this protocol version does not define. The connection
+    /// stays open.
+    UnknownType(i32),
+    /// The answer's body could not be decoded. The connection stays open.
+    Decode(DecodeError),
+    /// The answer is of another Type than the request. The connection stays open.
+    UnexpectedAnswer {
+        /// The request's Type.
+        expected: MessageType,
+        /// The answer's Type.
+        got: MessageType,
+    },
+}
+
+impl ClientError {
+    /// Whether the connection is still open after this error.
+    pub fn connection_usable(&self) -> bool {
+        !matches!(self, Self::NotConnected | Self::Io(_) | Self::Closed)
+    }
+}
+
+/// A frame that does not fit the link's send buffer is a request too large to encode.
+impl From<crate::proto::frame::EncodeError> for ClientError {
+    fn from(_: crate::proto::frame::EncodeError) -> Self {
+        Self::Encode(WriteError::BufferFull)
+    }
+}
