@@ -7,4 +7,8 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+// First, so that every module below can use the logging macros.
+#[macro_use]
+mod fmt;
+
 pub mod proto;
