@@ -11,4 +11,5 @@
 #[macro_use]
 mod fmt;
 
+pub mod config;
 pub mod proto;
