@@ -2,9 +2,9 @@
 //!
 //! This crate is the portable core of the panel firmware. [`proto`] is the pure codec of the
 //! robot's `robot_server` protocol (V1.0.12): frames, XML, and typed messages for every Type,
-//! with no I/O, no allocation and no panics. [`panel`] is the panel's logic (buttons and
-//! control so far) as state machines fed with events and time, and [`config`] holds the
-//! build-time settings.
+//! with no I/O, no allocation and no panics. [`panel`] is the panel's logic (buttons,
+//! control and monitor so far) as state machines fed with events and time, and [`config`]
+//! holds the build-time settings.
 #![no_std]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]

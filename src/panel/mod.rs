@@ -6,6 +6,8 @@
 //!   one press and one release per push.
 //! - [`control`]: [`Control`] turns presses and releases into [`Action`]s (commands to send),
 //!   with motion repeats, e-stop priority and lock-out, and navigation cancelling.
+//! - [`monitor`]: [`Monitor`] schedules the polls of the robot's state, and [`RobotView`]
+//!   keeps the latest answers with their age.
 //!
 //! Nothing here does I/O, reads a clock or allocates: every input carries its time (`now`),
 //! and every output is pulled, so host tests drive the panel with simulated time and no
@@ -13,9 +15,11 @@
 
 pub mod buttons;
 pub mod control;
+pub mod monitor;
 
 pub use buttons::{Button, ButtonDebouncers, ButtonEvent, Debouncer};
 pub use control::{Action, Control, succeeded};
+pub use monitor::{Monitor, RobotView, Stamped};
 
 use embassy_time::{Duration, Instant};
 
