@@ -3,7 +3,7 @@
 //! This crate is the portable core of the panel firmware. [`proto`] is the pure codec of the
 //! robot's `robot_server` protocol (V1.0.12): frames, XML, and typed messages for every Type,
 //! with no I/O, no allocation and no panics. [`panel`] is the panel's logic (buttons,
-//! control and monitor so far) as state machines fed with events and time, and [`config`]
+//! control, monitor, indicators) as state machines fed with events and time, and [`config`]
 //! holds the build-time settings.
 #![no_std]
 #![deny(unsafe_code)]
