@@ -1,6 +1,10 @@
-//! The one logging shim: `defmt` on the target, `log` on the host, nothing when neither
-//! feature is on. Portable code logs through these macros only, because defmt's macros fail
-//! to link in host tests.
+//! The crate's one logging shim: `trace!`, `debug!`, `info!`, `warn!` and `error!`.
+//!
+//! Portable code cannot call defmt directly: defmt needs a global logger and linker sections
+//! that host builds do not have, so host tests would fail to link. These macros forward to
+//! `defmt` with the `defmt` feature (firmware), else to the `log` crate with the `log` feature
+//! (host programs and tests), else to nothing (the arguments are still borrowed, so they count
+//! as used). `defmt` wins when both are on, so no feature combination fails to build.
 //!
 //! Format strings must suit both back ends: `{}` for integers and strings, `{:?}` for
 //! everything else (defmt takes both through `Format`; `log` through `Display`/`Debug`).

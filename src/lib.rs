@@ -2,13 +2,19 @@
 //!
 //! This crate is the portable core of the panel firmware. [`proto`] is the pure codec of the
 //! robot's `robot_server` protocol (V1.0.12): frames, XML, and typed messages for every Type,
-//! with no I/O, no allocation and no panics.
+//! with no I/O, no allocation and no panics. [`client`] talks to the robot over any async byte
+//! stream (message IDs, timeouts, reconnection). [`panel`] is the panel's logic (buttons,
+//! control, monitor, indicators) as state machines fed with events and time, and [`config`]
+//! holds the build-time settings.
 #![no_std]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+// First, so that every module below can use the logging macros.
 #[macro_use]
 mod fmt;
 
 pub mod client;
+pub mod config;
+pub mod panel;
 pub mod proto;

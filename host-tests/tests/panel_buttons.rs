@@ -1,0 +1,124 @@
+//! The buttons' names and the debouncer.
+
+mod panel_support;
+
+use embassy_time::Duration;
+use panel_support::at;
+use x30_panel::config::Config;
+use x30_panel::panel::buttons::BUTTON_COUNT;
+use x30_panel::panel::{Button, ButtonDebouncers, ButtonEvent, Debouncer};
+use x30_panel::proto::message::{MotionCommand, Speed};
+
+const DEBOUNCE: Duration = Duration::from_millis(15);
+
+#[test]
+fn buttons_in_design_order_with_virtual_panel_names() {
+    let names: Vec<_> = Button::ALL.iter().map(|b| b.name()).collect();
+    assert_eq!(
+        names.join(" "),
+        "forward backward turn-left turn-right strafe-left strafe-right stop estop \
+         stop-stepping lie-down gait light dock cancel"
+    );
+    assert_eq!(Button::ALL.len(), BUTTON_COUNT);
+    for (i, button) in Button::ALL.into_iter().enumerate() {
+        assert_eq!(Button::from_name(button.name()), Some(button));
+        assert_eq!(button.index(), i);
+    }
+    for bad in ["", "Forward", "turn_left", "e-stop", "forward "] {
+        assert_eq!(Button::from_name(bad), None, "{bad:?}");
+    }
+}
+
+#[test]
+fn the_first_six_are_motion_buttons() {
+    let motion: Vec<_> = Button::ALL.into_iter().filter(|b| b.is_motion()).collect();
+    assert_eq!(
+        motion,
+        [
+            Button::Forward,
+            Button::Backward,
+            Button::TurnLeft,
+            Button::TurnRight,
+            Button::StrafeLeft,
+            Button::StrafeRight
+        ]
+    );
+    let speeds = Config::default().speeds;
+    for button in Button::ALL {
+        let command = button.motion(&speeds);
+        assert_eq!(command.is_some(), button.is_motion(), "{button:?}");
+        assert!(command.is_none_or(|c| c.is_continuous()), "{button:?}");
+    }
+    assert_eq!(
+        Button::TurnRight.motion(&speeds),
+        Some(MotionCommand::TurnRight(Speed::Default))
+    );
+}
+
+#[test]
+fn stable_press_is_reported_once_after_the_debounce_time() {
+    let mut d = Debouncer::new(DEBOUNCE);
+    assert_eq!(d.sample(true, at(100)), None);
+    assert_eq!(d.deadline(), Some(at(115)));
+    assert_eq!(d.sample(true, at(114)), None);
+    assert_eq!(d.sample(true, at(115)), Some(true));
+    assert!(d.is_pressed());
+    assert_eq!(d.deadline(), None);
+    assert_eq!(d.sample(true, at(116)), None);
+    assert_eq!(d.sample(true, at(500)), None);
+}
+
+#[test]
+fn bounces_are_ignored() {
+    let mut d = Debouncer::new(DEBOUNCE);
+    // The contact chatters for 8 ms, each level shorter than the debounce time.
+    for (i, level) in [true, false, true, false, true].into_iter().enumerate() {
+        assert_eq!(d.sample(level, at(100 + 2 * i as u64)), None);
+    }
+    // The debounce time counts from the last change (108), not the first (100).
+    assert_eq!(d.deadline(), Some(at(123)));
+    assert_eq!(d.sample(true, at(116)), None);
+    assert_eq!(d.sample(true, at(123)), Some(true));
+    // Release, with bounces of its own.
+    assert_eq!(d.sample(false, at(300)), None);
+    assert_eq!(d.sample(true, at(302)), None);
+    assert_eq!(d.sample(false, at(304)), None);
+    assert_eq!(d.sample(false, at(318)), None);
+    assert_eq!(d.sample(false, at(319)), Some(false));
+    assert!(!d.is_pressed());
+}
+
+#[test]
+fn a_glitch_shorter_than_the_debounce_time_is_no_event() {
+    let mut d = Debouncer::new(DEBOUNCE);
+    assert_eq!(d.sample(true, at(0)), None);
+    assert_eq!(d.sample(false, at(10)), None);
+    // Back at the reported level: nothing pending.
+    assert_eq!(d.deadline(), None);
+    assert_eq!(d.sample(false, at(100)), None);
+    assert!(!d.is_pressed());
+}
+
+#[test]
+fn debouncers_for_every_button() {
+    let mut d = ButtonDebouncers::new(DEBOUNCE);
+    assert_eq!(d.next_deadline(), None);
+    assert_eq!(d.sample(Button::Estop, true, at(0)), None);
+    assert_eq!(d.sample(Button::Gait, true, at(5)), None);
+    assert_eq!(d.next_deadline(), Some(at(15)));
+    assert_eq!(
+        d.pending().collect::<Vec<_>>(),
+        [Button::Estop, Button::Gait]
+    );
+    assert_eq!(
+        d.sample(Button::Estop, true, at(15)),
+        Some(ButtonEvent {
+            button: Button::Estop,
+            pressed: true
+        })
+    );
+    assert_eq!(d.next_deadline(), Some(at(20)));
+    assert_eq!(d.sample(Button::Gait, false, at(12)), None);
+    assert_eq!(d.next_deadline(), None);
+    assert_eq!(d.pending().count(), 0);
+}

@@ -1,0 +1,200 @@
+//! The three LEDs, rule by rule (DESIGN.md "Indicators").
+
+mod panel_support;
+
+use embassy_time::Instant;
+use panel_support::*;
+use x30_panel::config::Config;
+use x30_panel::panel::indicators::*;
+use x30_panel::panel::{Fault, Led, LinkState, RobotView};
+use x30_panel::proto::codes::*;
+use x30_panel::proto::message::*;
+
+/// A view holding `status` and a healthy battery, both answered at 0.
+fn view_with(status: RobotStatus) -> RobotView {
+    let mut v = RobotView::new(&Config::default());
+    v.update(&Response::Status(status), at(0));
+    v.update(&Response::Battery(battery()), at(0));
+    v
+}
+
+/// The fault LED while connected, with no failed command, at 100 ms.
+fn fault_of(status: RobotStatus) -> Led {
+    fault_led(LinkState::Connected, &view_with(status), false, at(100))
+}
+
+#[test]
+fn link_led_rules() {
+    let fresh = view_with(status());
+    let empty = RobotView::new(&Config::default());
+    assert_eq!(link_led(LinkState::NoNetwork, &fresh, at(100)), Led::Off);
+    assert_eq!(link_led(LinkState::Connecting, &fresh, at(100)), Led::Blink);
+    assert_eq!(link_led(LinkState::Connected, &fresh, at(100)), Led::On);
+    // Connected, but the status cannot be read (yet, any more, or at all).
+    assert_eq!(link_led(LinkState::Connected, &empty, at(100)), Led::Blink);
+    assert_eq!(link_led(LinkState::Connected, &fresh, at(2000)), Led::Blink);
+    let zero = view_with(unavailable_status());
+    assert_eq!(link_led(LinkState::Connected, &zero, at(100)), Led::Blink);
+}
+
+#[test]
+fn activity_flashes_50_ms_per_command() {
+    assert_eq!(FLASH.as_millis(), 50);
+    assert_eq!(activity_led(false, None, at(100)), Led::Off);
+    let sent = Some(at(1000));
+    assert_eq!(activity_led(false, sent, at(1000)), Led::On);
+    assert_eq!(activity_led(false, sent, at(1049)), Led::On);
+    assert_eq!(activity_led(false, sent, at(1050)), Led::Off);
+    assert_eq!(activity_led(false, sent, at(999)), Led::Off);
+}
+
+#[test]
+fn activity_is_steady_while_navigating() {
+    assert_eq!(activity_led(true, None, at(100)), Led::On);
+    assert_eq!(activity_led(true, Some(at(0)), at(10_000)), Led::On);
+}
+
+#[test]
+fn fault_off_for_a_healthy_robot() {
+    assert_eq!(fault_of(status()), Led::Off);
+    assert_eq!(fault(&view_with(status()), at(100)), None);
+}
+
+#[test]
+fn each_fault_lights_the_fault_led() {
+    type Change = fn(&mut RobotStatus);
+    let cases: [(Change, Fault); 5] = [
+        (|s| s.motion_state = MotionState::Fallen, Fault::Fallen),
+        (
+            |s| s.motion_state = MotionState::SoftEmergencyStop,
+            Fault::SoftEmergencyStop,
+        ),
+        (
+            |s| s.motor_state = MotorState::OverTemperature,
+            Fault::MotorOverTemperature,
+        ),
+        (|s| s.location = Location::Lost, Fault::LocalisationLost),
+        (|s| s.electricity = 20, Fault::BatteryLow),
+    ];
+    for (change, expected) in cases {
+        let mut s = status();
+        change(&mut s);
+        assert_eq!(fault(&view_with(s), at(100)), Some(expected));
+        assert_eq!(fault_of(s), Led::On, "{expected:?}");
+    }
+}
+
+#[test]
+fn battery_threshold_is_20_percent() {
+    let with = |electricity| RobotStatus {
+        electricity,
+        ..status()
+    };
+    assert_eq!(fault_of(with(21)), Led::Off);
+    assert_eq!(fault_of(with(20)), Led::On);
+    assert_eq!(fault_of(with(5)), Led::On);
+}
+
+#[test]
+fn battery_protection_lights_the_fault_led() {
+    let mut v = view_with(status());
+    v.update(
+        &Response::Battery(Battery {
+            protected_state: ProtectedState::Triggered,
+            ..battery()
+        }),
+        at(50),
+    );
+    assert_eq!(fault(&v, at(100)), Some(Fault::BatteryProtection));
+    assert_eq!(fault_led(LinkState::Connected, &v, false, at(100)), Led::On);
+}
+
+#[test]
+fn stale_or_unavailable_status_blinks() {
+    let mut fallen = status();
+    fallen.motion_state = MotionState::Fallen;
+    let v = view_with(fallen);
+    // A fall reported 2 s ago is no longer known: the status is unavailable instead.
+    assert_eq!(
+        fault_led(LinkState::Connected, &v, false, at(1999)),
+        Led::On
+    );
+    assert_eq!(
+        fault_led(LinkState::Connected, &v, false, at(2000)),
+        Led::Blink
+    );
+    assert_eq!(fault_of(unavailable_status()), Led::Blink);
+    let empty = RobotView::new(&Config::default());
+    assert_eq!(
+        fault_led(LinkState::Connected, &empty, false, at(0)),
+        Led::Blink
+    );
+}
+
+#[test]
+fn failed_command_blinks() {
+    let v = view_with(status());
+    assert_eq!(
+        fault_led(LinkState::Connected, &v, true, at(100)),
+        Led::Blink
+    );
+    // A robot fault is more than a failed command.
+    let mut s = status();
+    s.location = Location::Lost;
+    assert_eq!(
+        fault_led(LinkState::Connected, &view_with(s), true, at(100)),
+        Led::On
+    );
+}
+
+#[test]
+fn without_a_connection_only_a_failed_command_blinks_the_fault_led() {
+    let empty = RobotView::new(&Config::default());
+    for link in [LinkState::NoNetwork, LinkState::Connecting] {
+        assert_eq!(fault_led(link, &empty, false, at(100)), Led::Off);
+        assert_eq!(fault_led(link, &empty, true, at(100)), Led::Blink);
+    }
+}
+
+#[test]
+fn indicators_together_and_when_they_change() {
+    let v = view_with(status());
+    let inputs = Inputs {
+        link: LinkState::Connected,
+        view: &v,
+        navigating: false,
+        last_sent: Some(at(100)),
+        last_command_failed: false,
+    };
+    assert_eq!(
+        Indicators::derive(&inputs, at(120)),
+        Indicators {
+            link: Led::On,
+            activity: Led::On,
+            fault: Led::Off
+        }
+    );
+    assert_eq!(Indicators::next_change(&inputs, at(120)), Some(at(150)));
+    assert_eq!(Indicators::next_change(&inputs, at(150)), Some(at(2000)));
+    assert_eq!(Indicators::next_change(&inputs, at(2000)), None);
+    assert_eq!(
+        Indicators::derive(&inputs, at(2000)),
+        Indicators {
+            link: Led::Blink,
+            activity: Led::Off,
+            fault: Led::Blink
+        }
+    );
+}
+
+#[test]
+fn led_names_and_blinking() {
+    assert_eq!(
+        [Led::Off, Led::On, Led::Blink].map(Led::name),
+        ["off", "on", "blink"]
+    );
+    let lit = |ms| Led::Blink.is_lit(Instant::from_millis(ms));
+    assert!(lit(0) && lit(249) && !lit(250) && !lit(499) && lit(500));
+    assert!(Led::On.is_lit(at(250)) && !Led::Off.is_lit(at(0)));
+    assert_eq!(Fault::BatteryLow.description(), "battery low");
+}

@@ -1,0 +1,228 @@
+//! The poll schedule and the robot view (DESIGN.md "Monitor").
+
+mod panel_support;
+
+use std::collections::BTreeMap;
+
+use embassy_time::{Duration, Instant};
+use panel_support::*;
+use x30_panel::config::Config;
+use x30_panel::panel::{Monitor, RobotView};
+use x30_panel::proto::codes::*;
+use x30_panel::proto::message::*;
+
+/// Runs the monitor from `from` until just before `to`, as the application does, and returns
+/// when each Type was polled.
+fn polls(
+    monitor: &mut Monitor,
+    from: Instant,
+    to: Instant,
+    mut event: impl FnMut(&mut Monitor, Instant),
+) -> BTreeMap<i32, Vec<u64>> {
+    let mut out = BTreeMap::<i32, Vec<u64>>::new();
+    let mut now = from;
+    while now < to {
+        event(monitor, now);
+        while let Some(request) = monitor.next_poll(now) {
+            out.entry(request.message_type().raw())
+                .or_default()
+                .push(now.as_millis());
+        }
+        // Wake at the next poll, or at the next whole 100 ms for the test's events.
+        let tick = Instant::from_millis((now.as_millis() / 100 + 1) * 100);
+        now = monitor
+            .next_deadline()
+            .map_or(tick, |d| d.min(tick))
+            .max(now);
+    }
+    out
+}
+
+fn counts(polls: &BTreeMap<i32, Vec<u64>>) -> Vec<(i32, usize)> {
+    polls.iter().map(|(t, v)| (*t, v.len())).collect()
+}
+
+#[test]
+fn one_minute_of_polls() {
+    let mut m = Monitor::new(&Config::default());
+    m.link(true, at(0));
+    let p = polls(&mut m, at(0), at(60_000), |_, _| {});
+    assert_eq!(
+        counts(&p),
+        [(1002, 120), (1008, 6), (2001, 12), (2002, 120)],
+        "1007 only while a task runs"
+    );
+    let spaced = |t: i32, ms: u64| p[&t].windows(2).all(|w| w[1] - w[0] == ms);
+    assert!(spaced(1002, 500) && spaced(2002, 500));
+    assert!(spaced(2001, 5000) && spaced(1008, 10_000));
+}
+
+#[test]
+fn nav_status_polled_at_1_hz_only_while_a_task_runs() {
+    let mut m = Monitor::new(&Config::default());
+    m.link(true, at(0));
+    let p = polls(&mut m, at(0), at(60_000), |m, now| match now.as_millis() {
+        10_000 => m.navigation(true, now),
+        30_500 => m.navigation(false, now),
+        _ => {}
+    });
+    let nav = &p[&1007];
+    // From one second after the task started until it ended.
+    assert_eq!(nav.first(), Some(&11_000));
+    assert_eq!(nav.last(), Some(&30_000));
+    assert_eq!(nav.len(), 20);
+    assert!(nav.windows(2).all(|w| w[1] - w[0] == 1000));
+}
+
+#[test]
+fn nothing_is_polled_while_disconnected() {
+    let mut m = Monitor::new(&Config::default());
+    assert_eq!(m.next_deadline(), None);
+    assert_eq!(m.next_poll(at(10_000)), None);
+    m.navigation(true, at(0));
+    assert_eq!(m.next_deadline(), None);
+    // Connecting while a task runs starts its 1007 polls too, a period later.
+    m.link(true, at(20_000));
+    let polls: Vec<_> = std::iter::from_fn(|| m.next_poll(at(21_000))).collect();
+    assert!(polls.contains(&Request::NavStatus), "{polls:?}");
+    m.link(false, at(25_000));
+    assert_eq!(m.next_deadline(), None);
+    assert_eq!(m.next_poll(at(30_000)), None);
+}
+
+#[test]
+fn connecting_polls_everything_at_once_in_order() {
+    let mut m = Monitor::new(&Config::default());
+    m.link(true, at(1000));
+    assert_eq!(m.next_deadline(), Some(at(1000)));
+    let first: Vec<_> = std::iter::from_fn(|| m.next_poll(at(1000))).collect();
+    assert_eq!(
+        first,
+        [
+            Request::Status,
+            Request::Perception,
+            Request::Battery,
+            Request::MotorTemperatures
+        ]
+    );
+    assert_eq!(m.next_deadline(), Some(at(1500)));
+    // A second "connected" report does not restart the schedule.
+    m.link(true, at(1200));
+    assert_eq!(m.next_poll(at(1200)), None);
+}
+
+#[test]
+fn a_late_wake_up_polls_once_and_keeps_the_period() {
+    let mut m = Monitor::new(&Config::default());
+    m.link(true, at(0));
+    while m.next_poll(at(0)).is_some() {}
+    // Three seconds late: each poll once, not once per missed period.
+    let late: Vec<_> = std::iter::from_fn(|| m.next_poll(at(3000))).collect();
+    assert_eq!(late, [Request::Status, Request::Perception]);
+    assert_eq!(m.next_deadline(), Some(at(3500)));
+}
+
+#[test]
+fn poll_periods_follow_the_configuration() {
+    let mut config = Config::default();
+    config.polls.status = Duration::from_millis(1000);
+    config.polls.battery = Duration::from_millis(20_000);
+    let mut m = Monitor::new(&config);
+    m.link(true, at(0));
+    let p = polls(&mut m, at(0), at(60_000), |_, _| {});
+    assert_eq!(counts(&p), [(1002, 60), (1008, 6), (2001, 3), (2002, 60)]);
+}
+
+#[test]
+fn view_keeps_the_latest_answers() {
+    let mut v = RobotView::new(&Config::default());
+    assert_eq!(v.status(at(0)), None);
+    v.update(&Response::Status(status()), at(100));
+    let mut newer = status();
+    newer.electricity = 79;
+    v.update(&Response::Status(newer), at(600));
+    assert_eq!(v.status(at(700)).map(|s| s.electricity), Some(79));
+    v.update(&Response::Battery(battery()), at(700));
+    v.update(
+        &Response::Perception(Perception {
+            obs_state: ObsState::ObstacleAhead,
+        }),
+        at(700),
+    );
+    let nav = NavTaskState {
+        value: 1,
+        status: NavTaskStatus::Running,
+        error_code: NavTaskStatus::Running,
+    };
+    v.update(&Response::NavStatus(nav), at(700));
+    let result = NavResult {
+        value: 1,
+        outcome: NavOutcome::Succeeded,
+        status: ErrorStatus::TaskCompleted,
+    };
+    v.update(&Response::NavResult(result), at(800));
+    // Answers to commands are not state.
+    v.update(
+        &Response::Light(CommandAck {
+            result: CommandResult::Success,
+        }),
+        at(800),
+    );
+    assert_eq!(v.battery(at(800)), Some(&battery()));
+    assert_eq!(
+        v.perception(at(800)).map(|p| p.obs_state),
+        Some(ObsState::ObstacleAhead)
+    );
+    assert_eq!(v.nav_state(at(800)), Some(&nav));
+    assert_eq!(
+        v.nav_result().map(|r| (r.value, r.at)),
+        Some((result, at(800)))
+    );
+}
+
+#[test]
+fn status_older_than_2_s_is_unavailable() {
+    let mut v = RobotView::new(&Config::default());
+    v.update(&Response::Status(status()), at(1000));
+    assert!(v.status_readable(at(2999)));
+    assert_eq!(v.status_stale_at(at(2999)), Some(at(3000)));
+    assert!(!v.status_readable(at(3000)));
+    assert_eq!(v.status_stale_at(at(3000)), None);
+    // The last answer stays available for the log, however old.
+    assert_eq!(v.last_status().map(|s| s.at), Some(at(1000)));
+}
+
+#[test]
+fn all_zero_status_is_unavailable() {
+    let mut v = RobotView::new(&Config::default());
+    v.update(&Response::Status(unavailable_status()), at(0));
+    assert!(!v.status_readable(at(0)));
+    assert_eq!(v.status(at(0)), None);
+}
+
+#[test]
+fn other_answers_go_stale_after_four_periods() {
+    let mut v = RobotView::new(&Config::default());
+    v.update(&Response::Battery(battery()), at(0));
+    v.update(
+        &Response::MotorTemperatures(MotorTemperatures {
+            left_front_sway: 40.0,
+            left_front_hip: 40.0,
+            left_front_knee: 40.0,
+            right_front_sway: 40.0,
+            right_front_hip: 40.0,
+            right_front_knee: 40.0,
+            left_back_sway: 40.0,
+            left_back_hip: 40.0,
+            left_back_knee: 40.0,
+            right_back_sway: 40.0,
+            right_back_hip: 40.0,
+            right_back_knee: 40.0,
+        }),
+        at(0),
+    );
+    assert!(v.battery(at(19_999)).is_some());
+    assert!(v.battery(at(20_000)).is_none());
+    assert!(v.motor_temperatures(at(39_999)).is_some());
+    assert!(v.motor_temperatures(at(40_000)).is_none());
+}

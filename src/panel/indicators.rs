@@ -1,0 +1,217 @@
+//! The three LEDs, derived from what the panel knows (DESIGN.md "Indicators").
+//!
+//! Every LED state is a pure function of the link state, the [`RobotView`], the last command
+//! and the time, so the application recomputes them whenever anything changed and sets the
+//! LEDs that differ; nothing here remembers a previous state.
+//!
+//! - **link** (green): off without a network, blinking while connecting to the robot, on when
+//!   connected and the status is readable (blinking again while connected but unreadable).
+//! - **activity** (blue): on for [`FLASH`] after each command, steady while a navigation task
+//!   runs.
+//! - **fault** (red): on while the robot reports a [`Fault`]; otherwise blinking when the
+//!   status cannot be read although connected, or when the last command failed.
+
+use embassy_time::{Duration, Instant};
+
+use super::monitor::RobotView;
+use crate::proto::codes::{Location, MotionState, MotorState, ProtectedState};
+
+/// How long the activity LED lights for one command: long enough to see.
+pub const FLASH: Duration = Duration::from_millis(50);
+
+/// Battery charge (`Electricity`, %) at or below which the fault LED lights.
+pub const LOW_BATTERY_PERCENT: i32 = 20;
+
+/// Half the period of a blinking LED: on this long, then off this long (2 Hz).
+pub const BLINK_HALF_PERIOD: Duration = Duration::from_millis(250);
+
+/// What one LED shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Led {
+    /// Dark.
+    Off,
+    /// Lit.
+    On,
+    /// Blinking at 2 Hz.
+    Blink,
+}
+
+impl Led {
+    /// `off`, `on` or `blink`, as the virtual panel logs it.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Off => "off",
+            Self::On => "on",
+            Self::Blink => "blink",
+        }
+    }
+
+    /// Whether the LED is lit at `now`; a blinking LED is lit in the first half of each period.
+    pub fn is_lit(self, now: Instant) -> bool {
+        match self {
+            Self::Off => false,
+            Self::On => true,
+            Self::Blink => (now.as_ticks() / BLINK_HALF_PERIOD.as_ticks().max(1)).is_multiple_of(2),
+        }
+    }
+}
+
+/// How far the connection to the robot is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LinkState {
+    /// The board has no network (no link, or no address yet).
+    NoNetwork,
+    /// The board has a network and is connecting to the robot.
+    Connecting,
+    /// The control connection to the robot is up.
+    Connected,
+}
+
+/// Something wrong with the robot that lights the fault LED.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Fault {
+    /// MotionState 7: the robot has fallen.
+    Fallen,
+    /// MotionState 6: soft emergency stop.
+    SoftEmergencyStop,
+    /// MotorState 1: motor over-temperature.
+    MotorOverTemperature,
+    /// Location 1: localisation lost.
+    LocalisationLost,
+    /// Electricity at or below [`LOW_BATTERY_PERCENT`].
+    BatteryLow,
+    /// ProtectedState 1 in the battery answer: the battery's protection has triggered.
+    BatteryProtection,
+}
+
+impl Fault {
+    /// Short English description, for the log.
+    pub const fn description(self) -> &'static str {
+        match self {
+            Self::Fallen => "fallen",
+            Self::SoftEmergencyStop => "soft emergency stop",
+            Self::MotorOverTemperature => "motor over-temperature",
+            Self::LocalisationLost => "localisation lost",
+            Self::BatteryLow => "battery low",
+            Self::BatteryProtection => "battery protection triggered",
+        }
+    }
+}
+
+/// The first fault the robot reports in fresh answers at `now`, most severe first.
+pub fn fault(view: &RobotView, now: Instant) -> Option<Fault> {
+    if let Some(status) = view.status(now) {
+        let faults = [
+            (status.motion_state == MotionState::Fallen, Fault::Fallen),
+            (
+                status.motion_state == MotionState::SoftEmergencyStop,
+                Fault::SoftEmergencyStop,
+            ),
+            (
+                status.motor_state == MotorState::OverTemperature,
+                Fault::MotorOverTemperature,
+            ),
+            (status.location == Location::Lost, Fault::LocalisationLost),
+            (status.electricity <= LOW_BATTERY_PERCENT, Fault::BatteryLow),
+        ];
+        if let Some(&(_, fault)) = faults.iter().find(|(active, _)| *active) {
+            return Some(fault);
+        }
+    }
+    view.battery(now)
+        .filter(|b| b.protected_state == ProtectedState::Triggered)
+        .map(|_| Fault::BatteryProtection)
+}
+
+/// The link LED.
+pub fn link_led(link: LinkState, view: &RobotView, now: Instant) -> Led {
+    match link {
+        LinkState::NoNetwork => Led::Off,
+        LinkState::Connected if view.status_readable(now) => Led::On,
+        // Connected but the status cannot be read is not the full link yet.
+        LinkState::Connecting | LinkState::Connected => Led::Blink,
+    }
+}
+
+/// The activity LED.
+pub fn activity_led(navigating: bool, last_sent: Option<Instant>, now: Instant) -> Led {
+    let flashing =
+        last_sent.is_some_and(|at| at <= now && now.saturating_duration_since(at) < FLASH);
+    if navigating || flashing {
+        Led::On
+    } else {
+        Led::Off
+    }
+}
+
+/// The fault LED.
+pub fn fault_led(
+    link: LinkState,
+    view: &RobotView,
+    last_command_failed: bool,
+    now: Instant,
+) -> Led {
+    // Without a connection the link LED already says why nothing can be read.
+    let unreadable = link == LinkState::Connected && !view.status_readable(now);
+    if fault(view, now).is_some() {
+        Led::On
+    } else if unreadable || last_command_failed {
+        Led::Blink
+    } else {
+        Led::Off
+    }
+}
+
+/// Everything the LEDs depend on besides the time.
+#[derive(Debug, Clone, Copy)]
+pub struct Inputs<'a> {
+    /// How far the connection to the robot is.
+    pub link: LinkState,
+    /// The robot's latest answers.
+    pub view: &'a RobotView,
+    /// Whether a navigation task runs.
+    pub navigating: bool,
+    /// When the last command was sent.
+    pub last_sent: Option<Instant>,
+    /// Whether the last command failed.
+    pub last_command_failed: bool,
+}
+
+/// The state of the three LEDs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Indicators {
+    /// Green: the link to the robot.
+    pub link: Led,
+    /// Blue: commands and navigation.
+    pub activity: Led,
+    /// Red: faults.
+    pub fault: Led,
+}
+
+impl Indicators {
+    /// The LEDs for `inputs` at `now`.
+    pub fn derive(inputs: &Inputs<'_>, now: Instant) -> Self {
+        Self {
+            link: link_led(inputs.link, inputs.view, now),
+            activity: activity_led(inputs.navigating, inputs.last_sent, now),
+            fault: fault_led(inputs.link, inputs.view, inputs.last_command_failed, now),
+        }
+    }
+
+    /// When the LEDs may next change without any new input: the end of an activity flash or
+    /// the moment the status goes stale, whichever comes first after `now`.
+    pub fn next_change(inputs: &Inputs<'_>, now: Instant) -> Option<Instant> {
+        let flash_end = inputs
+            .last_sent
+            .map(|at| at.saturating_add(FLASH))
+            .filter(|&end| end > now);
+        [flash_end, inputs.view.status_stale_at(now)]
+            .into_iter()
+            .flatten()
+            .min()
+    }
+}

@@ -1,0 +1,283 @@
+//! What the panel knows of the robot: the poll schedule and the latest answers.
+//!
+//! [`Monitor`] decides when to ask the robot for its state: status (1002) and perception
+//! (2002) every 500 ms, battery (2001) every 5 s, motor temperatures (1008) every 10 s, and
+//! the navigation-task status (1007) every second while a task runs (DESIGN.md "Monitor").
+//! The polls share the control connection with commands, and commands go first: the
+//! application asks [`Control`](super::control::Control) for an action before it asks the
+//! monitor for a poll.
+//!
+//! [`RobotView`] keeps the latest answer of each kind with the time it arrived. An answer
+//! older than four poll periods is stale and reads as absent, so the indicators never show a
+//! state the robot may have left long ago.
+
+use embassy_time::{Duration, Instant};
+
+use super::next_after;
+use crate::config::{Config, PollPeriods};
+use crate::proto::message::{
+    Battery, MotorTemperatures, NavResult, NavTaskState, Perception, Request, Response, RobotStatus,
+};
+
+/// How many poll periods an answer stays fresh: at the default 500 ms, a status 2 s old or
+/// older counts as unavailable.
+pub const STALE_AFTER_POLLS: u32 = 4;
+
+/// One periodic poll.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+struct Schedule {
+    /// What to ask.
+    kind: Poll,
+    /// How often.
+    period: Duration,
+    /// When next; `None` while this poll is off.
+    due: Option<Instant>,
+}
+
+/// The kinds of poll, in the order they go out when due together.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum Poll {
+    /// 1002.
+    Status,
+    /// 2002.
+    Perception,
+    /// 2001.
+    Battery,
+    /// 1008.
+    MotorTemperatures,
+    /// 1007, only while a navigation task runs.
+    NavStatus,
+}
+
+impl Poll {
+    /// The request that asks for this state.
+    fn request(self) -> Request {
+        match self {
+            Self::Status => Request::Status,
+            Self::Perception => Request::Perception,
+            Self::Battery => Request::Battery,
+            Self::MotorTemperatures => Request::MotorTemperatures,
+            Self::NavStatus => Request::NavStatus,
+        }
+    }
+}
+
+/// The poll schedule.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Monitor {
+    /// One schedule per kind of poll, in [`Poll`] order.
+    schedules: [Schedule; 5],
+    /// Whether the control connection is up.
+    connected: bool,
+    /// Whether a navigation task runs.
+    navigating: bool,
+}
+
+impl Monitor {
+    /// A schedule with the configured periods; nothing is due until the robot is connected.
+    pub fn new(config: &Config) -> Self {
+        let p = &config.polls;
+        let schedule = |kind, period| Schedule {
+            kind,
+            period,
+            due: None,
+        };
+        Self {
+            schedules: [
+                schedule(Poll::Status, p.status),
+                schedule(Poll::Perception, p.status),
+                schedule(Poll::Battery, p.battery),
+                schedule(Poll::MotorTemperatures, p.motor_temperatures),
+                schedule(Poll::NavStatus, p.nav_status),
+            ],
+            connected: false,
+            navigating: false,
+        }
+    }
+
+    /// The control connection went up (every poll at once, to fill the view) or down (no
+    /// polls until it is back).
+    pub fn link(&mut self, connected: bool, now: Instant) {
+        if connected == self.connected {
+            return;
+        }
+        self.connected = connected;
+        for s in &mut self.schedules {
+            s.due = connected.then_some(now);
+        }
+        // The 1007 poll has its own rule.
+        self.schedule_nav(now);
+    }
+
+    /// A navigation task started or ended: 1007 polls run only in between.
+    pub fn navigation(&mut self, running: bool, now: Instant) {
+        if running != self.navigating {
+            self.navigating = running;
+            self.schedule_nav(now);
+        }
+    }
+
+    /// The poll to send at `now`, if one is due; the most overdue goes first, ties in the
+    /// order status, perception, battery, motor temperatures, navigation status.
+    pub fn next_poll(&mut self, now: Instant) -> Option<Request> {
+        let s = self
+            .schedules
+            .iter_mut()
+            .filter(|s| s.due.is_some_and(|due| due <= now))
+            // `min_by_key` keeps the first of equal keys, which gives the tie order.
+            .min_by_key(|s| s.due)?;
+        s.due = s.due.map(|due| next_after(due, s.period, now));
+        Some(s.kind.request())
+    }
+
+    /// When the next poll is due; `None` while disconnected.
+    pub fn next_deadline(&self) -> Option<Instant> {
+        self.schedules.iter().filter_map(|s| s.due).min()
+    }
+
+    /// Turns the 1007 poll on one period from `now` while connected and navigating, else off.
+    fn schedule_nav(&mut self, now: Instant) {
+        let on = self.connected && self.navigating;
+        for s in &mut self.schedules {
+            if s.kind == Poll::NavStatus {
+                // Not at once: just after the 1003 the robot may still report the last task.
+                s.due = on.then(|| now.saturating_add(s.period));
+            }
+        }
+    }
+}
+
+/// An answer and when it arrived.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Stamped<T> {
+    /// The answer.
+    pub value: T,
+    /// When it arrived.
+    pub at: Instant,
+}
+
+impl<T> Stamped<T> {
+    /// An answer that arrived at `at`.
+    pub fn new(value: T, at: Instant) -> Self {
+        Self { value, at }
+    }
+}
+
+/// The latest answers of the robot: everything the indicators and the log show.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RobotView {
+    /// Latest status (1002), even an all-zero one.
+    status: Option<Stamped<RobotStatus>>,
+    /// Latest battery answer (2001).
+    battery: Option<Stamped<Battery>>,
+    /// Latest perception answer (2002).
+    perception: Option<Stamped<Perception>>,
+    /// Latest motor temperatures (1008).
+    motor_temperatures: Option<Stamped<MotorTemperatures>>,
+    /// Latest navigation-task status (1007).
+    nav_state: Option<Stamped<NavTaskState>>,
+    /// How the last navigation task ended (1003 answer); never stale.
+    nav_result: Option<Stamped<NavResult>>,
+    /// Poll periods, from which the age limits follow.
+    polls: PollPeriods,
+}
+
+impl RobotView {
+    /// An empty view whose answers go stale after [`STALE_AFTER_POLLS`] configured periods.
+    pub fn new(config: &Config) -> Self {
+        Self {
+            status: None,
+            battery: None,
+            perception: None,
+            motor_temperatures: None,
+            nav_state: None,
+            nav_result: None,
+            polls: config.polls,
+        }
+    }
+
+    /// Takes in an answer that arrived at `now`; answers to commands are not kept.
+    pub fn update(&mut self, response: &Response, now: Instant) {
+        match *response {
+            Response::Status(s) => self.status = Some(Stamped::new(s, now)),
+            Response::Battery(b) => self.battery = Some(Stamped::new(b, now)),
+            Response::Perception(p) => self.perception = Some(Stamped::new(p, now)),
+            Response::MotorTemperatures(t) => {
+                self.motor_temperatures = Some(Stamped::new(t, now));
+            }
+            Response::NavStatus(n) => self.nav_state = Some(Stamped::new(n, now)),
+            Response::NavResult(r) => self.nav_result = Some(Stamped::new(r, now)),
+            _ => {}
+        }
+    }
+
+    /// The status if it is readable at `now`: fresh, and not the all-zero "unavailable" one.
+    pub fn status(&self, now: Instant) -> Option<&RobotStatus> {
+        fresh(&self.status, self.polls.status, now).filter(|s| !s.is_unavailable())
+    }
+
+    /// Whether the status is readable at `now` (see [`RobotView::status`]).
+    pub fn status_readable(&self, now: Instant) -> bool {
+        self.status(now).is_some()
+    }
+
+    /// The latest status as received, however old, with its arrival time.
+    pub fn last_status(&self) -> Option<&Stamped<RobotStatus>> {
+        self.status.as_ref()
+    }
+
+    /// When the status stops being fresh, if that is after `now`: the indicators change then.
+    pub fn status_stale_at(&self, now: Instant) -> Option<Instant> {
+        let at = self
+            .status
+            .as_ref()?
+            .at
+            .saturating_add(stale_limit(self.polls.status));
+        (at > now).then_some(at)
+    }
+
+    /// The battery answer if it is fresh at `now`.
+    pub fn battery(&self, now: Instant) -> Option<&Battery> {
+        fresh(&self.battery, self.polls.battery, now)
+    }
+
+    /// The perception answer if it is fresh at `now`.
+    pub fn perception(&self, now: Instant) -> Option<&Perception> {
+        fresh(&self.perception, self.polls.status, now)
+    }
+
+    /// The motor temperatures if they are fresh at `now`.
+    pub fn motor_temperatures(&self, now: Instant) -> Option<&MotorTemperatures> {
+        fresh(&self.motor_temperatures, self.polls.motor_temperatures, now)
+    }
+
+    /// The navigation-task status if it is fresh at `now`.
+    pub fn nav_state(&self, now: Instant) -> Option<&NavTaskState> {
+        fresh(&self.nav_state, self.polls.nav_status, now)
+    }
+
+    /// How the last navigation task ended, and when the answer came.
+    pub fn nav_result(&self) -> Option<&Stamped<NavResult>> {
+        self.nav_result.as_ref()
+    }
+}
+
+/// How old an answer polled every `period` may be and still count.
+fn stale_limit(period: Duration) -> Duration {
+    period
+        .checked_mul(STALE_AFTER_POLLS)
+        .unwrap_or(Duration::MAX)
+}
+
+/// The answer if it is younger than [`stale_limit`] of its poll `period` at `now`.
+fn fresh<T>(answer: &Option<Stamped<T>>, period: Duration, now: Instant) -> Option<&T> {
+    answer
+        .as_ref()
+        .filter(|a| now.saturating_duration_since(a.at) < stale_limit(period))
+        .map(|a| &a.value)
+}
