@@ -14,6 +14,7 @@
 #[macro_use]
 mod fmt;
 
+pub mod app;
 pub mod client;
 pub mod config;
 pub mod panel;

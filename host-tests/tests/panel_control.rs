@@ -352,12 +352,32 @@ fn held_motion_does_not_resume_after_reconnect() {
     assert_eq!(c.next_deadline(), None);
     assert!(run(&mut c, at(0), at(2000)).is_empty());
     c.link(true);
-    assert!(run(&mut c, at(2000), at(5000)).is_empty());
+    // The robot hears zero velocity once, in case the release is lost with the link, and
+    // nothing more while the button stays down.
+    assert_eq!(run(&mut c, at(2000), at(5000)), [(at(2000), send(ZERO))]);
     // Its release sends nothing either: it was not driving.
     c.button(Button::Forward, false, at(5000));
     assert_eq!(drain(&mut c, at(5000)), []);
     c.button(Button::Forward, true, at(6000));
     assert_eq!(drain(&mut c, at(6000)), [send(FORWARD)]);
+}
+
+#[test]
+fn zero_velocity_goes_out_first_after_an_outage_that_cut_motion() {
+    let mut c = connected();
+    c.button(Button::TurnLeft, true, at(0));
+    assert_eq!(
+        drain(&mut c, at(0)),
+        [send(MotionCommand::TurnLeft(Speed::Default))]
+    );
+    c.link(false);
+    c.button(Button::TurnLeft, false, at(100));
+    c.link(true);
+    assert_eq!(drain(&mut c, at(500)), [send(ZERO)]);
+    // An outage while idle sends nothing.
+    c.link(false);
+    c.link(true);
+    assert_eq!(drain(&mut c, at(600)), []);
 }
 
 #[test]

@@ -154,6 +154,9 @@ pub struct Control {
     last_sent: Option<Instant>,
     /// Whether the last command failed.
     last_failed: bool,
+    /// Whether motion was being commanded when the link dropped, so that zero velocity goes
+    /// out first when it is back.
+    stop_on_reconnect: bool,
 }
 
 impl Control {
@@ -177,6 +180,7 @@ impl Control {
             light: 0,
             last_sent: None,
             last_failed: false,
+            stop_on_reconnect: false,
         }
     }
 
@@ -241,11 +245,19 @@ impl Control {
                 if connected { "connected" } else { "lost" }
             );
         }
+        let was_connected = self.connected;
         self.connected = connected;
-        if !connected {
+        if was_connected && !connected {
+            // The release that should stop the robot may be lost with the link. Zero
+            // velocity after the outage is no replayed press: stopping is always safe.
+            self.stop_on_reconnect |= self.next_repeat.is_some()
+                || self.queue.iter().any(|e| matches!(e, Entry::Motion(_)));
             // Nothing is replayed after an outage, and held buttons need a new press.
             self.queue.clear();
             self.end_motion();
+        }
+        if connected && core::mem::take(&mut self.stop_on_reconnect) {
+            self.push_motion(MotionCommand::ZeroVelocity);
         }
     }
 
