@@ -14,6 +14,18 @@
 
 use core::fmt;
 
+/// What every coded enum offers, for code that handles any of them alike.
+pub trait Code: Copy + fmt::Debug + fmt::Display {
+    /// Decodes a raw code; one this protocol version does not define becomes `Unknown(raw)`.
+    fn from_raw(raw: i32) -> Self;
+    /// The code as sent on the wire.
+    fn raw(self) -> i32;
+    /// Short English meaning of the code; "unknown code" for `Unknown`.
+    fn description(self) -> &'static str;
+    /// The variant's name (`BatteryTooLow`), or `Unknown`.
+    fn name(self) -> &'static str;
+}
+
 /// Generates a coded enum with an `Unknown(i32)` case and its conversions.
 ///
 /// Each variant is `Name = raw => "description"`; the description also becomes the variant's
@@ -71,6 +83,27 @@ macro_rules! coded_enum {
                 match self {
                     $( $(#[cfg($cfg)])* Self::$variant => $desc, )+
                     Self::Unknown(_) => "unknown code",
+                }
+            }
+        }
+
+        impl Code for $name {
+            fn from_raw(raw: i32) -> Self {
+                Self::from_raw(raw)
+            }
+
+            fn raw(self) -> i32 {
+                self.raw()
+            }
+
+            fn description(self) -> &'static str {
+                self.description()
+            }
+
+            fn name(self) -> &'static str {
+                match self {
+                    $( $(#[cfg($cfg)])* Self::$variant => stringify!($variant), )+
+                    Self::Unknown(_) => "Unknown",
                 }
             }
         }

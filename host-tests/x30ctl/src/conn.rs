@@ -23,7 +23,7 @@ use x30_panel::proto::time::Timestamp;
 use x30_panel::proto::xml::writer::WriteError;
 
 use crate::error::Error;
-use crate::render::{self, decode_error_text, warn};
+use crate::render::{self, warn};
 
 /// The robot_server port.
 pub const DEFAULT_PORT: u16 = 30000;
@@ -438,12 +438,11 @@ impl Connection {
                     return Err(Error::BadAnswer {
                         message_type: ty,
                         message_id: id,
-                        detail: decode_error_text(&e),
+                        detail: e.to_string(),
                     });
                 }
                 Err(e) => warn(&format!(
-                    "ignored an undecodable frame with message ID {id} (waiting for the answer to Type {ty}, message ID {message_id}): {}",
-                    decode_error_text(&e)
+                    "ignored an undecodable frame with message ID {id} (waiting for the answer to Type {ty}, message ID {message_id}): {e}"
                 )),
             }
         }

@@ -279,8 +279,8 @@ fn decode_body(asdu: &[u8]) -> Body {
     };
     let error = match (&request, &response) {
         (Err(req), Err(resp)) => {
-            let req = render::decode_error_text(req);
-            let resp = render::decode_error_text(resp);
+            let req = req.to_string();
+            let resp = resp.to_string();
             Some(if req == resp {
                 req
             } else {

@@ -14,14 +14,11 @@ use std::io::{self, Write as _};
 use serde::Serialize;
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::{
-    Battery, CommandAck, DecodeError, Light, MotionAck, MotionCommand, MotionValue,
-    MotorTemperatures, NavPoint, NavResult, NavTaskState, Perception, Relocalize, RelocalizeAck,
-    Request, RequestError, Response, RobotStatus, ValidationError,
+    Battery, CommandAck, Light, MotionAck, MotionCommand, MotionValue, MotorTemperatures, NavPoint,
+    NavResult, NavTaskState, Perception, Relocalize, RelocalizeAck, Request, RequestError,
+    Response, RobotStatus, ValidationError,
 };
 use x30_panel::proto::time::{TIME_TEXT_LEN, Timestamp};
-use x30_panel::proto::xml::StructureError;
-use x30_panel::proto::xml::number::NumberError;
-use x30_panel::proto::xml::reader::XmlErrorKind;
 
 /// Writes one line to stdout; a closed stdout is not worth a panic.
 pub fn emit(line: &str) {
@@ -53,53 +50,6 @@ pub fn time_text(time: &Timestamp) -> String {
     String::from_utf8_lossy(&text).into_owned()
 }
 
-/// A coded enum of the protocol core: every one has `raw` and `description`.
-pub trait Coded: Copy + fmt::Debug {
-    /// The code as on the wire.
-    fn code(self) -> i32;
-    /// The document's meaning.
-    fn meaning(self) -> &'static str;
-}
-
-macro_rules! coded {
-    ($($t:ty),* $(,)?) => {$(
-        impl Coded for $t {
-            fn code(self) -> i32 { self.raw() }
-            fn meaning(self) -> &'static str { self.description() }
-        }
-    )*};
-}
-
-coded!(
-    MessageType,
-    MotionCommandCode,
-    MotionState,
-    GaitState,
-    NavGait,
-    MotionGait,
-    PointInfo,
-    NavSpeed,
-    Manner,
-    ObsMode,
-    NavMode,
-    Terrain,
-    Posture,
-    Location,
-    MotorState,
-    ChargeState,
-    ControlMode,
-    OnDockState,
-    NavOutcome,
-    ErrorStatus,
-    NavTaskStatus,
-    LightEffect,
-    RequestErrorCode,
-    CommandResult,
-    LocalizationResult,
-    ObsState,
-    ProtectedState,
-);
-
 /// A code in JSON: `{"code": 41730, "name": "BatteryTooLow", "description": "battery too low"}`.
 #[derive(Debug, Serialize)]
 pub struct CodeJson {
@@ -112,19 +62,17 @@ pub struct CodeJson {
 }
 
 /// The JSON form of a code.
-pub fn code_json<T: Coded>(value: T) -> CodeJson {
-    let debug = format!("{value:?}");
-    let name = debug.split('(').next().unwrap_or_default().to_owned();
+pub fn code_json<T: Code>(value: T) -> CodeJson {
     CodeJson {
-        code: value.code(),
-        name,
-        description: value.meaning(),
+        code: value.raw(),
+        name: value.name().to_owned(),
+        description: value.description(),
     }
 }
 
 /// `meaning (code)`, the human form of a code.
-pub fn code_text<T: Coded>(value: T) -> String {
-    format!("{} ({})", value.meaning(), value.code())
+pub fn code_text<T: Code>(value: T) -> String {
+    format!("{} ({})", value.description(), value.raw())
 }
 
 // ---------------------------------------------------------------------------------------
@@ -910,70 +858,8 @@ pub fn request_text(request: &Request) -> String {
 }
 
 // ---------------------------------------------------------------------------------------
-// The core's error enums, as text
+// Validation errors in the command line's own words (its flag values)
 // ---------------------------------------------------------------------------------------
-
-fn number_text(e: &NumberError) -> &'static str {
-    match e {
-        NumberError::Empty => "empty",
-        NumberError::Invalid => "not a decimal number",
-        NumberError::OutOfRange => "out of range",
-        NumberError::NotFinite => "not finite",
-        _ => "not a usable number",
-    }
-}
-
-fn xml_kind_text(kind: &XmlErrorKind) -> &'static str {
-    match kind {
-        XmlErrorKind::UnexpectedEnd => "the document ends inside markup or with elements open",
-        XmlErrorKind::NoRoot => "no root element",
-        XmlErrorKind::Dtd => "a DTD or entity declaration (refused)",
-        XmlErrorKind::Cdata => "a CDATA section (refused)",
-        XmlErrorKind::UnknownEntity => "an unknown entity reference",
-        XmlErrorKind::MismatchedTag => "an end tag that does not match the open element",
-        XmlErrorKind::TooDeep => "elements nested too deep",
-        XmlErrorKind::TrailingContent => "content after the root element",
-        XmlErrorKind::TextOutsideRoot => "text outside the root element",
-        XmlErrorKind::MalformedTag => "a malformed tag or name",
-        _ => "malformed XML",
-    }
-}
-
-/// Why a document's structure was rejected, as text.
-pub fn structure_error_text(e: &StructureError) -> String {
-    match e {
-        StructureError::Xml(x) => {
-            format!("XML error at byte {}: {}", x.offset, xml_kind_text(&x.kind))
-        }
-        StructureError::NotPatrolDevice => "the root element is not <PatrolDevice>".to_owned(),
-        StructureError::MissingElement(name) => format!("<{name}> is missing"),
-        StructureError::NotText(name) => format!("<{name}> holds elements, not text"),
-        StructureError::BadNumber(name, n) => format!("<{name}>: {}", number_text(n)),
-        StructureError::BadTime => "<Time> is not YYYY-MM-DD HH:MM:SS".to_owned(),
-        StructureError::TooManyItemsBlocks => "too many <Items> blocks".to_owned(),
-        other => format!("{other:?}"),
-    }
-}
-
-/// Why a body could not be decoded, as text.
-pub fn decode_error_text(e: &DecodeError) -> String {
-    match e {
-        DecodeError::Structure(s) => structure_error_text(s),
-        DecodeError::UnknownType(t) => {
-            format!("unknown Type {t} (not a Type of protocol V1.0.12)")
-        }
-        DecodeError::UnknownCommand(c) => format!("unknown Type 2 Command {c}"),
-        DecodeError::MissingItem(item) => format!("item <{item}> is missing"),
-        DecodeError::ItemNotText(item) => format!("item <{item}> holds elements, not a value"),
-        DecodeError::BadItem { item, error } => {
-            format!("item <{item}>: {}", number_text(error))
-        }
-        DecodeError::ItemsBlocks { found } => {
-            format!("{found} <Items> blocks where this message takes one")
-        }
-        other => format!("{other:?}"),
-    }
-}
 
 /// Why a request breaks the document's rules, as text.
 pub fn validation_error_text(e: &ValidationError) -> String {

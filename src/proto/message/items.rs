@@ -8,6 +8,7 @@
 //! Keeping per-message code this small is what lets the whole codec fit a few KiB of flash.
 
 use super::DecodeError;
+use crate::proto::codes::Code;
 use crate::proto::xml::number;
 use crate::proto::xml::writer::{DocumentWriter, WriteError};
 use crate::proto::xml::{Item, Items};
@@ -248,47 +249,14 @@ pub(crate) use item_set;
 
 /// Coded enums are items through their raw integer, so an unknown code never fails a
 /// message.
-macro_rules! coded_item_value {
-    ($($ty:ty),* $(,)?) => {$(
-        impl ItemValue for $ty {
-            const KIND: Kind = Kind::Int;
+impl<T: Code> ItemValue for T {
+    const KIND: Kind = Kind::Int;
 
-            fn to_raw(&self) -> Raw {
-                Some(self.raw() as u32)
-            }
+    fn to_raw(&self) -> Raw {
+        Some(Code::raw(*self) as u32)
+    }
 
-            fn from_raw_bits(bits: u32) -> Self {
-                Self::from_raw(bits as i32)
-            }
-        }
-    )*};
+    fn from_raw_bits(bits: u32) -> Self {
+        T::from_raw(bits as i32)
+    }
 }
-
-use crate::proto::codes::*;
-coded_item_value!(
-    MotionState,
-    GaitState,
-    NavGait,
-    MotionGait,
-    PointInfo,
-    NavSpeed,
-    Manner,
-    ObsMode,
-    NavMode,
-    Terrain,
-    Posture,
-    Location,
-    MotorState,
-    ChargeState,
-    ControlMode,
-    OnDockState,
-    NavOutcome,
-    ErrorStatus,
-    NavTaskStatus,
-    LightEffect,
-    RequestErrorCode,
-    CommandResult,
-    LocalizationResult,
-    ObsState,
-    ProtectedState,
-);
