@@ -3,8 +3,9 @@
 //! It does nothing for hosted targets, so host-tests/ can build the library without a linker
 //! script. For bare-metal targets it copies the selected board's memory layout into `OUT_DIR`,
 //! where cortex-m-rt's `link.x` finds it as `memory.x` (and, for a board without a PAC, its
-//! interrupt names as `device.x`), and passes the linker scripts to the binary only
-//! (`rustc-link-arg-bins`), so the library and its dependents are unaffected.
+//! interrupt names as `device.x`), and passes the linker scripts to the binary and to the
+//! on-target tests only (`rustc-link-arg-bins`, `rustc-link-arg-tests`), so the library and its
+//! dependents are unaffected.
 
 use std::env;
 use std::fs;
@@ -86,9 +87,11 @@ fn main() {
     }
 }
 
-/// Passes a linker argument to the firmware.
+/// Passes a linker argument to the firmware and to the on-target tests (tests/), which are
+/// firmware images too.
 fn link_arg(arg: &str) {
     println!("cargo:rustc-link-arg-bins={arg}");
+    println!("cargo:rustc-link-arg-tests={arg}");
 }
 
 /// Copies the linker script `from` (relative to the package root) to `OUT_DIR/to`.
