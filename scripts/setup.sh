@@ -15,3 +15,5 @@ apt_need() {
 }
 apt_need llvm llvm-size
 apt_need g++ g++
+# The virtual panel (x30-qemu, its end-to-end tests and the demo) boots the firmware in QEMU.
+apt_need qemu-system-arm qemu-system-arm
