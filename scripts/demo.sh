@@ -17,14 +17,21 @@ step "virtual panel: x30-sim, x30-qemu and the QEMU firmware"
 (cd host-tests && cargo build --release -p x30-sim -p x30-qemu)
 host=$(rustc -vV | sed -n 's/^host: //p')
 bin="host-tests/target/$host/release"
-elf=$("$bin/x30-qemu" --build-only)
+# X30_QEMU_FIRMWARE names a ready ELF (built elsewhere); otherwise x30-qemu builds it.
+elf=${X30_QEMU_FIRMWARE:-$("$bin/x30-qemu" --build-only)}
 echo "firmware: $elf"
 
 work=$(mktemp -d)
 sim_pid=""
 cleanup() {
-    [ -n "$sim_pid" ] && kill "$sim_pid" 2>/dev/null && wait "$sim_pid" 2>/dev/null
+    # The script's own status, not that of stopping the simulator, is the exit status.
+    local status=$?
+    if [ -n "$sim_pid" ]; then
+        kill "$sim_pid" 2>/dev/null || true
+        wait "$sim_pid" 2>/dev/null || true
+    fi
     rm -rf "$work"
+    exit "$status"
 }
 trap cleanup EXIT
 

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Runs every check and test of the project: formatting, lints for the firmware target and
-# the host, docs, the firmware build, host tests, the benchmark's allocation check and
-# figures, a short fuzz run, and the codec's size. Installs what a fresh Debian machine
-# with only the Rust toolchain lacks.
+# the host, docs, the firmware builds, host tests (including the end-to-end tests in QEMU),
+# the benchmark's allocation check and figures, a short fuzz run, and the codec's size.
+# Installs what a fresh Debian machine with only the Rust toolchain lacks.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
@@ -31,7 +31,10 @@ step "firmware build (Nucleo-F767ZI)"
 cargo build --release
 scripts/firmware-size.sh
 
-step "host tests"
+step "firmware build (QEMU mps2-an386, booted by the end-to-end tests)"
+cargo build --release --no-default-features --features board-qemu-mps2-an386
+
+step "host tests (with the end-to-end tests: the QEMU firmware against x30-sim)"
 (cd host-tests && cargo test --workspace --all-targets)
 
 step "benchmark (zero allocations asserted; timings reported)"

@@ -111,7 +111,7 @@ fn end_of_input_lets_the_firmware_run_for_the_grace_period_then_stops_qemu() {
 
 #[test]
 fn both_of_qemus_output_streams_reach_standard_output() {
-    // QEMU 7 writes semihosting output to its standard error; UART0 goes to standard output.
+    // QEMU's own messages (a fatal CPU error, say) come on its standard error.
     let run = run("wait led link on\nsend stderr led fault blink", &[]);
     run.expect_code(0).stdout_has("\nled fault blink");
 }

@@ -1,7 +1,8 @@
 //! End to end: the QEMU firmware (mps2-an386) booted by x30-qemu, connected over QEMU's user
 //! network to an x30-sim running in this process, driven through the virtual panel's UART.
 //!
-//! The firmware is built once (`x30-qemu --build-only`) and booted afresh for each test.
+//! The firmware is built once (`x30-qemu --build-only`, or taken from `X30_QEMU_FIRMWARE`)
+//! and booted afresh for each test.
 //! One QEMU runs at a time: the rate assertions need the CPU, and a 2-core machine runs the
 //! whole file in well under two minutes that way. Without `qemu-system-arm` every test
 //! prints "SKIPPED: qemu-system-arm missing" and returns; CI installs it (scripts/setup.sh).
@@ -28,10 +29,14 @@ const SESSION_LIMIT: Duration = Duration::from_secs(75);
 /// Longest anything asked of the panel may take to show at the robot.
 const REACTION: Duration = Duration::from_secs(10);
 
-/// The firmware ELF, built on first use; the error if it does not build.
+/// The firmware ELF, built on first use; the error if it does not build. `X30_QEMU_FIRMWARE`
+/// names a ready ELF instead (one built elsewhere, such as another worktree).
 fn firmware() -> &'static Result<PathBuf, String> {
     static ELF: OnceLock<Result<PathBuf, String>> = OnceLock::new();
     ELF.get_or_init(|| {
+        if let Some(elf) = std::env::var_os("X30_QEMU_FIRMWARE") {
+            return Ok(PathBuf::from(elf));
+        }
         let started = Instant::now();
         let out = Command::new(BIN)
             .arg("--build-only")
