@@ -15,5 +15,6 @@ apt_need() {
 }
 apt_need llvm llvm-size
 apt_need g++ g++
-# The QEMU board's firmware and on-target tests run in QEMU.
+# The QEMU board's firmware, its on-target tests, and the virtual panel (x30-qemu, its
+# end-to-end tests and the demo) run in QEMU.
 apt_need qemu-system-arm qemu-system-arm

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Runs every check and test of the project: formatting, lints for the firmware target and
-# the host, docs, the firmware build, host tests, the benchmark's allocation check and
-# figures, a short fuzz run, and the codec's size. Installs what a fresh Debian machine
-# with only the Rust toolchain lacks.
+# the host, docs, the firmware builds, host tests (including the end-to-end tests in QEMU),
+# the benchmark's allocation check and figures, a short fuzz run, and the codec's size.
+# Installs what a fresh Debian machine with only the Rust toolchain lacks.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
@@ -37,7 +37,7 @@ cargo build --release --no-default-features --features board-qemu-mps2-an386
 scripts/firmware-size.sh
 scripts/qemu-test.sh
 
-step "host tests"
+step "host tests (with the end-to-end tests: the QEMU firmware against x30-sim)"
 (cd host-tests && cargo test --workspace --all-targets)
 
 step "benchmark (zero allocations asserted; timings reported)"

@@ -1,0 +1,199 @@
+//! QEMU's command line, and starting it so that it never outlives x30-qemu.
+
+use std::env;
+use std::ffi::OsString;
+use std::io;
+use std::net::{Ipv4Addr, SocketAddr};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+/// The host as QEMU's user networking (slirp) shows it to the guest: connections to
+/// 10.0.2.2 reach the host's 127.0.0.1.
+pub const GUEST_HOST: Ipv4Addr = Ipv4Addr::new(10, 0, 2, 2);
+
+/// The address the firmware must dial to reach a robot at `robot` on this machine.
+///
+/// Only `127.0.0.1:PORT` (or `localhost:PORT`) is accepted: slirp forwards 10.0.2.2 to
+/// exactly that address, so any other robot would be unreachable from the guest, and the
+/// virtual panel is for simulators, never for driving a real robot on the network.
+pub fn guest_robot(robot: &str) -> Result<SocketAddr, String> {
+    let refuse = |why: &str| {
+        Err(format!(
+            "--robot {robot}: {why}; the virtual panel reaches only a robot on this machine's \
+             loopback, 127.0.0.1:PORT (QEMU's user network maps 10.0.2.2 to 127.0.0.1)"
+        ))
+    };
+    let port = match robot.parse::<SocketAddr>() {
+        Ok(SocketAddr::V4(addr)) if *addr.ip() == Ipv4Addr::LOCALHOST => addr.port(),
+        Ok(_) => return refuse("not 127.0.0.1"),
+        Err(_) => match robot.strip_prefix("localhost:").map(str::parse::<u16>) {
+            Some(Ok(port)) => port,
+            _ => return refuse("not an address of the form 127.0.0.1:PORT"),
+        },
+    };
+    if port == 0 {
+        return refuse("port 0 is not a listening robot");
+    }
+    Ok(SocketAddr::new(GUEST_HOST.into(), port))
+}
+
+/// QEMU's arguments: the mps2-an386 machine, its LAN9118 on user networking, UART0 on QEMU's
+/// standard input and output, semihosting passing the robot's address as the firmware's
+/// command line, no monitor (its prompt would mix with the output and eat input), and the
+/// firmware ELF. `extra` goes last, so that it can add to or override what comes before.
+pub fn args(elf: &Path, guest_robot: SocketAddr, extra: &[String]) -> Vec<OsString> {
+    let mut args: Vec<OsString> = [
+        "-M",
+        "mps2-an386",
+        "-nographic",
+        "-monitor",
+        "none",
+        "-serial",
+        "stdio",
+        "-semihosting-config",
+    ]
+    .into_iter()
+    .map(OsString::from)
+    .collect();
+    args.push(format!("enable=on,target=native,arg=x30-panel,arg={guest_robot}").into());
+    args.extend(["-nic", "user,model=lan9118", "-kernel"].map(OsString::from));
+    args.push(elf.into());
+    args.extend(extra.iter().map(OsString::from));
+    args
+}
+
+/// Where `program` is: itself if it names a path, else the first executable of that name
+/// on `PATH`; `None` if there is none.
+pub fn find(program: &Path) -> Option<PathBuf> {
+    if program.components().count() > 1 {
+        return is_executable(program).then(|| program.to_owned());
+    }
+    env::split_paths(&env::var_os("PATH")?)
+        .map(|dir| dir.join(program))
+        .find(|path| is_executable(path))
+}
+
+fn is_executable(path: &Path) -> bool {
+    use std::os::unix::fs::PermissionsExt;
+    path.metadata()
+        .is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
+}
+
+/// Starts QEMU with every standard stream piped to x30-qemu.
+///
+/// QEMU gets a process group of its own, so a Ctrl-C typed in the terminal reaches only
+/// x30-qemu, which then stops QEMU itself and reports the interruption; otherwise QEMU
+/// would quit on its own and its exit could pass for the firmware's. On Linux it is also
+/// killed if x30-qemu dies without cleaning up (SIGKILL, a crash), so no orphan keeps
+/// the robot's port busy.
+pub fn spawn(program: &Path, args: &[OsString]) -> io::Result<Child> {
+    use std::os::unix::process::CommandExt;
+    let mut command = Command::new(program);
+    command
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .process_group(0);
+    die_with_parent(&mut command);
+    command.spawn()
+}
+
+/// Makes the child get SIGKILL when this process dies.
+///
+/// The signal follows the *thread* that spawned the child, so QEMU must be spawned from
+/// the main thread, which lives as long as the process.
+#[cfg(target_os = "linux")]
+#[allow(unsafe_code)]
+fn die_with_parent(command: &mut Command) {
+    use std::os::unix::process::CommandExt;
+    // `std::process::id` before the fork: the child compares its parent with it.
+    let parent = std::process::id();
+    // SAFETY: the closure runs in the forked child before exec, where only async-signal-safe
+    // calls are allowed: prctl and getppid are system calls, and the errors are built
+    // without allocating.
+    unsafe {
+        command.pre_exec(move || {
+            if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong) != 0 {
+                return Err(io::Error::last_os_error());
+            }
+            // The parent may have died between fork and prctl; then nobody would send it.
+            if libc::getppid() as u32 != parent {
+                return Err(io::Error::from_raw_os_error(libc::ESRCH));
+            }
+            Ok(())
+        });
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn die_with_parent(_command: &mut Command) {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loopback_robots_map_to_the_guest_host() {
+        assert_eq!(
+            guest_robot("127.0.0.1:30000"),
+            Ok("10.0.2.2:30000".parse().unwrap())
+        );
+        assert_eq!(
+            guest_robot("localhost:4242"),
+            Ok("10.0.2.2:4242".parse().unwrap())
+        );
+    }
+
+    #[test]
+    fn other_robots_are_refused() {
+        for robot in [
+            "192.168.1.106:30000",
+            "127.0.0.2:30000",
+            "[::1]:30000",
+            "0.0.0.0:30000",
+            "10.0.2.2:30000",
+            "127.0.0.1",
+            "localhost",
+            "localhost:http",
+            "robot.local:30000",
+            "127.0.0.1:0",
+        ] {
+            let err = guest_robot(robot).unwrap_err();
+            assert!(err.contains("127.0.0.1:PORT"), "{robot}: {err}");
+            assert!(err.starts_with(&format!("--robot {robot}:")), "{err}");
+        }
+    }
+
+    #[test]
+    fn command_line() {
+        let args = args(
+            Path::new("/fw/x30-panel"),
+            "10.0.2.2:30001".parse().unwrap(),
+            &["-d".into(), "guest_errors".into()],
+        );
+        let args: Vec<&str> = args.iter().map(|a| a.to_str().unwrap()).collect();
+        assert_eq!(
+            args.join(" "),
+            "-M mps2-an386 -nographic -monitor none -serial stdio -semihosting-config \
+             enable=on,target=native,arg=x30-panel,arg=10.0.2.2:30001 \
+             -nic user,model=lan9118 -kernel /fw/x30-panel -d guest_errors"
+        );
+    }
+
+    #[test]
+    fn finding_programs() {
+        assert_eq!(find(Path::new("sh")).map(|p| p.is_file()), Some(true));
+        assert_eq!(find(Path::new("/bin/sh")), Some(PathBuf::from("/bin/sh")));
+        assert_eq!(find(Path::new("x30-no-such-program")), None);
+        assert_eq!(find(Path::new("/nonexistent/qemu")), None);
+        // A file that is not executable is not a program.
+        assert_eq!(
+            find(Path::new(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/Cargo.toml"
+            ))),
+            None
+        );
+    }
+}

@@ -1,0 +1,265 @@
+//! x30-qemu's own behaviour, with a shell script standing in for QEMU (tests/fake-qemu.sh):
+//! the input language, the output, how each kind of ending maps to an exit status, and
+//! that QEMU never outlives x30-qemu.
+
+mod common;
+
+use std::time::Duration;
+
+use common::*;
+use nix::sys::signal::{self, Signal};
+use nix::unistd::Pid;
+
+/// The stand-in for QEMU; it also serves as the "firmware" file, which it never reads.
+const FAKE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fake-qemu.sh");
+
+/// Longest any one run may take before the test fails.
+const LIMIT: Duration = Duration::from_secs(20);
+
+/// x30-qemu on the fake QEMU with these extra arguments.
+fn start(extra: &[&str]) -> Running {
+    let mut args = vec![
+        "--robot",
+        "127.0.0.1:30123",
+        "--qemu",
+        FAKE,
+        "--firmware",
+        FAKE,
+    ];
+    args.extend_from_slice(extra);
+    Running::start(&args)
+}
+
+/// x30-qemu on the fake QEMU, given `script` as its whole input.
+fn run(script: &str, extra: &[&str]) -> Finished {
+    let mut running = start(extra);
+    for line in script.lines() {
+        running.send(line);
+    }
+    running.finish(LIMIT)
+}
+
+/// The fake's process ID, from its first line.
+fn fake_pid(stdout: &str) -> u32 {
+    stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("fake-qemu pid "))
+        .and_then(|pid| pid.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no pid line in\n{stdout}"))
+}
+
+/// The times (ms) at which the fake received each UART line, in order.
+fn uart(stdout: &str) -> Vec<(u64, String)> {
+    stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("uart "))
+        .map(|l| {
+            let (ms, line) = l.split_once(' ').expect("uart MS LINE");
+            (ms.parse().expect("milliseconds"), line.to_owned())
+        })
+        .collect()
+}
+
+#[test]
+fn boots_qemu_with_the_board_the_robot_and_the_firmware() {
+    let run = run("wait led link on", &["--grace-ms", "0"]);
+    run.expect_code(0).stdout_has(&format!(
+        "fake-qemu args -M mps2-an386 -nographic -monitor none -serial stdio \
+         -semihosting-config enable=on,target=native,arg=x30-panel,arg=10.0.2.2:30123 \
+         -nic user,model=lan9118 -kernel {FAKE}"
+    ));
+    assert!(process_gone(fake_pid(&run.stdout)), "QEMU left running");
+}
+
+#[test]
+fn script_lines_reach_the_uart_in_order_with_their_pauses() {
+    let script = "\
+# Comments and blank lines are x30-qemu's, not the panel's.
+
+wait led link on
++forward
+sleep 400
+-forward
+  +estop  
+-estop
+";
+    let run = run(script, &["--grace-ms", "100"]);
+    run.expect_code(0)
+        .stderr_has("> +forward")
+        .stderr_has("saw \"led link on\"");
+    let uart = uart(&run.stdout);
+    let lines: Vec<&str> = uart.iter().map(|(_, l)| l.as_str()).collect();
+    assert_eq!(lines, ["+forward", "-forward", "+estop", "-estop"], "{run}");
+    let held = uart[1].0 - uart[0].0;
+    assert!((390..1000).contains(&held), "held {held} ms\n{run}");
+    assert!(!run.stdout.contains("sleep"), "{run}");
+}
+
+#[test]
+fn end_of_input_lets_the_firmware_run_for_the_grace_period_then_stops_qemu() {
+    let run = run(
+        "wait led link on\nsend stderr still running",
+        &["--grace-ms", "800"],
+    );
+    run.expect_code(0)
+        .stderr_has("input done; QEMU stopped")
+        .stdout_has("still running");
+    assert!(run.elapsed >= Duration::from_millis(1000), "{run}");
+    assert!(run.elapsed < Duration::from_secs(5), "{run}");
+    assert!(process_gone(fake_pid(&run.stdout)), "QEMU left running");
+}
+
+#[test]
+fn both_of_qemus_output_streams_reach_standard_output() {
+    // QEMU's own messages (a fatal CPU error, say) come on its standard error.
+    let run = run("wait led link on\nsend stderr led fault blink", &[]);
+    run.expect_code(0).stdout_has("\nled fault blink");
+}
+
+#[test]
+fn wait_for_an_led_already_in_that_state_returns_at_once() {
+    let run = run(
+        "sleep 600\nwait led link on\n+gait\n-gait",
+        &["--grace-ms", "300", "--wait-timeout-s", "1"],
+    );
+    run.expect_code(0).stderr_has("led link on already");
+    assert_eq!(uart(&run.stdout).len(), 2, "{run}");
+}
+
+#[test]
+fn wait_for_text_gives_up_after_its_timeout() {
+    let run = run(
+        "wait connected to the robot\n+forward",
+        &["--wait-timeout-s", "1"],
+    );
+    run.expect_code(1)
+        .stderr_has("gave up waiting for \"connected to the robot\" after 1 s");
+    assert!(uart(&run.stdout).is_empty(), "{run}");
+    assert!(run.elapsed < Duration::from_secs(5), "{run}");
+    assert!(process_gone(fake_pid(&run.stdout)), "QEMU left running");
+}
+
+#[test]
+fn invalid_lines_are_reported_skipped_and_fail_the_run() {
+    let run = run(
+        "wait led link on\n+jump\nsleep soon\n+stop",
+        &["--grace-ms", "300"],
+    );
+    run.expect_code(1)
+        .stderr_has("unknown button \"jump\"")
+        .stderr_has("`sleep` needs a whole number of milliseconds")
+        .stderr_has("2 invalid input line(s)");
+    let uart = uart(&run.stdout);
+    assert_eq!(uart.len(), 1, "{run}");
+    assert_eq!(uart[0].1, "+stop");
+}
+
+#[test]
+fn a_panic_fails_the_run() {
+    let run = run("wait led link on\nsend boom\n+forward", &[]);
+    run.expect_code(1)
+        .stdout_has("panic: boom")
+        .stderr_has("the firmware panicked: panic: boom");
+}
+
+#[test]
+fn a_panic_fails_the_run_even_if_qemu_does_not_exit() {
+    let run = run("wait led link on\nsend hang-panic\nsleep 10000", &[]);
+    run.expect_code(1)
+        .stderr_has("the firmware panicked: panic: stuck");
+    // Stopped about two seconds after the panic, not after the sleep.
+    assert!(run.elapsed < Duration::from_secs(6), "{run}");
+    assert!(process_gone(fake_pid(&run.stdout)), "QEMU left running");
+}
+
+#[test]
+fn qemu_exiting_by_itself_passes_its_verdict_on() {
+    run("wait led link on\nsend exit 3\nsleep 5000", &[])
+        .expect_code(1)
+        .stderr_has("QEMU exited by itself (exit status: 3)");
+    let run = run("wait led link on\nsend exit 0\nsleep 5000", &[]);
+    run.expect_code(0);
+    assert!(run.elapsed < Duration::from_secs(4), "{run}");
+}
+
+#[test]
+fn the_time_limit_stops_qemu_with_status_124() {
+    let run = run("sleep 10000", &["--timeout-s", "1"]);
+    run.expect_code(124).stderr_has("time limit (1 s) passed");
+    assert!(run.elapsed < Duration::from_secs(4), "{run}");
+    assert!(process_gone(fake_pid(&run.stdout)), "QEMU left running");
+}
+
+#[test]
+fn ctrl_c_stops_qemu_with_status_130() {
+    let mut running = start(&[]);
+    running.expect_stdout(0, LIMIT, "boot", |l| l == "led link on");
+    running.send("+forward");
+    running.expect_stdout(0, LIMIT, "forward", |l| l.ends_with(" +forward"));
+    signal::kill(Pid::from_raw(running.pid() as i32), Signal::SIGINT).expect("signal");
+    let run = running.wait(LIMIT);
+    run.expect_code(130).stderr_has("interrupted; QEMU stopped");
+    assert!(process_gone(fake_pid(&run.stdout)), "QEMU left running");
+}
+
+#[test]
+fn qemu_dies_with_x30_qemu_even_when_it_is_killed() {
+    let running = start(&[]);
+    running.expect_stdout(0, LIMIT, "boot", |l| l == "led link on");
+    let pid = fake_pid(&running.stdout.all().join("\n"));
+    signal::kill(Pid::from_raw(running.pid() as i32), Signal::SIGKILL).expect("signal");
+    let run = running.wait(LIMIT);
+    assert_eq!(run.code, None, "{run}");
+    assert!(
+        wait_gone(pid, Duration::from_secs(5)),
+        "QEMU outlived x30-qemu"
+    );
+}
+
+#[test]
+fn robots_off_loopback_are_refused() {
+    let run = Running::start(&["--robot", "192.168.1.106:30000", "--qemu", FAKE]).finish(LIMIT);
+    run.expect_code(2)
+        .stderr_has("--robot 192.168.1.106:30000: not 127.0.0.1")
+        .stderr_has("127.0.0.1:PORT");
+    assert!(run.stdout.is_empty(), "{run}");
+}
+
+#[test]
+fn missing_qemu_is_named() {
+    Running::start(&[
+        "--robot",
+        "127.0.0.1:30000",
+        "--qemu",
+        "x30-no-such-qemu",
+        "--firmware",
+        FAKE,
+    ])
+    .finish(LIMIT)
+    .expect_code(2)
+    .stderr_has("x30-no-such-qemu not found")
+    .stderr_has("apt-get install qemu-system-arm");
+}
+
+#[test]
+fn missing_firmware_is_named() {
+    Running::start(&[
+        "--robot",
+        "127.0.0.1:30000",
+        "--qemu",
+        FAKE,
+        "--firmware",
+        "/nonexistent/x30-panel",
+    ])
+    .finish(LIMIT)
+    .expect_code(2)
+    .stderr_has("--firmware /nonexistent/x30-panel: no such file");
+}
+
+#[test]
+fn usage_errors_exit_with_2() {
+    Running::start(&[]).finish(LIMIT).expect_code(2);
+    Running::start(&["--robot", "127.0.0.1:1", "--grace-ms", "soon"])
+        .finish(LIMIT)
+        .expect_code(2);
+}

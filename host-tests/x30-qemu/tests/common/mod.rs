@@ -1,0 +1,279 @@
+//! Running the built `x30-qemu` as a child process: feeding its input line by line,
+//! watching its output as it comes, and always reaping it.
+
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::thread;
+use std::time::{Duration, Instant};
+
+/// The binary under test.
+pub const BIN: &str = env!("CARGO_BIN_EXE_x30-qemu");
+
+/// A line and when it arrived.
+type Timed = (Instant, String);
+
+/// Lines of one output stream, in arrival order, with the time each arrived.
+#[derive(Debug, Clone, Default)]
+pub struct Lines(Arc<(Mutex<Vec<Timed>>, Condvar)>);
+
+impl Lines {
+    fn lock(&self) -> MutexGuard<'_, Vec<Timed>> {
+        // A test thread that panicked while holding the lock has failed already.
+        self.0.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn collect(&self, stream: impl Read + Send + 'static) {
+        let lines = self.clone();
+        thread::spawn(move || {
+            for line in BufReader::new(stream).lines() {
+                let Ok(line) = line else { break };
+                lines.lock().push((Instant::now(), line));
+                lines.0.1.notify_all();
+            }
+        });
+    }
+
+    /// Every line so far.
+    pub fn all(&self) -> Vec<String> {
+        self.lock().iter().map(|(_, l)| l.clone()).collect()
+    }
+
+    /// Number of lines so far.
+    pub fn len(&self) -> usize {
+        self.lock().len()
+    }
+
+    /// Waits until a line at index `from` or later satisfies `pred`; its index and arrival
+    /// time, or `None` after `timeout`.
+    pub fn wait_for(
+        &self,
+        from: usize,
+        timeout: Duration,
+        pred: impl Fn(&str) -> bool,
+    ) -> Option<(usize, Instant)> {
+        let deadline = Instant::now() + timeout;
+        let mut lines = self.lock();
+        loop {
+            if let Some(i) = (from..lines.len()).find(|&i| pred(&lines[i].1)) {
+                return Some((i, lines[i].0));
+            }
+            let left = deadline.checked_duration_since(Instant::now())?;
+            lines = self
+                .0
+                .1
+                .wait_timeout(lines, left)
+                .unwrap_or_else(|e| e.into_inner())
+                .0;
+        }
+    }
+}
+
+/// A running x30-qemu.
+#[derive(Debug)]
+pub struct Running {
+    child: Child,
+    stdin: Option<ChildStdin>,
+    /// Its standard output.
+    pub stdout: Lines,
+    /// Its standard error.
+    pub stderr: Lines,
+    /// When it was started.
+    pub started: Instant,
+}
+
+/// A finished x30-qemu.
+#[derive(Debug)]
+pub struct Finished {
+    /// Exit code; `None` if a signal ended it.
+    pub code: Option<i32>,
+    /// Standard output.
+    pub stdout: String,
+    /// Standard error.
+    pub stderr: String,
+    /// From start to exit.
+    pub elapsed: Duration,
+}
+
+impl Finished {
+    /// Asserts the exit code, showing both streams if it differs.
+    #[track_caller]
+    pub fn expect_code(&self, code: i32) -> &Self {
+        assert_eq!(self.code, Some(code), "unexpected exit status\n{self}");
+        self
+    }
+
+    /// Asserts that standard output contains `needle`.
+    #[track_caller]
+    pub fn stdout_has(&self, needle: &str) -> &Self {
+        assert!(
+            self.stdout.contains(needle),
+            "stdout lacks {needle:?}\n{self}"
+        );
+        self
+    }
+
+    /// Asserts that standard error contains `needle`.
+    #[track_caller]
+    pub fn stderr_has(&self, needle: &str) -> &Self {
+        assert!(
+            self.stderr.contains(needle),
+            "stderr lacks {needle:?}\n{self}"
+        );
+        self
+    }
+}
+
+impl std::fmt::Display for Finished {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "--- exit {:?} after {:?}\n--- stdout\n{}\n--- stderr\n{}",
+            self.code, self.elapsed, self.stdout, self.stderr
+        )
+    }
+}
+
+impl Running {
+    /// Starts x30-qemu with these arguments, its input a pipe kept open until
+    /// [`Running::close_input`] or [`Running::finish`].
+    pub fn start(args: &[&str]) -> Self {
+        let mut child = Command::new(BIN)
+            .args(args)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("x30-qemu starts");
+        let stdout = Lines::default();
+        let stderr = Lines::default();
+        stdout.collect(child.stdout.take().expect("piped"));
+        stderr.collect(child.stderr.take().expect("piped"));
+        Self {
+            stdin: child.stdin.take(),
+            child,
+            stdout,
+            stderr,
+            started: Instant::now(),
+        }
+    }
+
+    /// Its process ID.
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// Sends one input line.
+    pub fn send(&mut self, line: &str) {
+        let stdin = self.stdin.as_mut().expect("input still open");
+        // x30-qemu may have ended already; the test sees that in its output and status.
+        let _ = writeln!(stdin, "{line}").and_then(|()| stdin.flush());
+    }
+
+    /// Ends its input.
+    pub fn close_input(&mut self) {
+        self.stdin = None;
+    }
+
+    /// Waits for a standard output line satisfying `pred`, failing the test with the
+    /// output so far if none comes within `timeout`.
+    #[track_caller]
+    pub fn expect_stdout(
+        &self,
+        from: usize,
+        timeout: Duration,
+        what: &str,
+        pred: impl Fn(&str) -> bool,
+    ) -> (usize, Instant) {
+        self.stdout
+            .wait_for(from, timeout, pred)
+            .unwrap_or_else(|| {
+                panic!(
+                    "no {what} within {timeout:?}\n--- stdout\n{}\n--- stderr\n{}",
+                    self.stdout.all().join("\n"),
+                    self.stderr.all().join("\n")
+                )
+            })
+    }
+
+    /// Closes its input and waits for it to exit, at most `limit` (then kills it and fails).
+    #[track_caller]
+    pub fn finish(mut self, limit: Duration) -> Finished {
+        self.close_input();
+        self.wait(limit)
+    }
+
+    /// Waits for it to exit without closing its input, at most `limit`.
+    #[track_caller]
+    pub fn wait(mut self, limit: Duration) -> Finished {
+        let deadline = Instant::now() + limit;
+        let status = loop {
+            if let Some(status) = self.child.try_wait().expect("try_wait") {
+                break status;
+            }
+            if Instant::now() >= deadline {
+                let _ = self.child.kill();
+                let _ = self.child.wait();
+                panic!(
+                    "x30-qemu still running after {limit:?}; killed\n--- stdout\n{}\n--- stderr\n{}",
+                    self.stdout.all().join("\n"),
+                    self.stderr.all().join("\n")
+                );
+            }
+            thread::sleep(Duration::from_millis(10));
+        };
+        let elapsed = self.started.elapsed();
+        // The reader threads end at end of file, right after the exit.
+        let settle = Instant::now() + Duration::from_secs(2);
+        while Instant::now() < settle && self.streams_open() {
+            thread::sleep(Duration::from_millis(10));
+        }
+        Finished {
+            code: status.code(),
+            stdout: self.stdout.all().join("\n"),
+            stderr: self.stderr.all().join("\n"),
+            elapsed,
+        }
+    }
+
+    fn streams_open(&self) -> bool {
+        // Each collector holds one extra reference while its thread runs.
+        Arc::strong_count(&self.stdout.0) > 1 || Arc::strong_count(&self.stderr.0) > 1
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        // A failed test must not leave x30-qemu (and with it QEMU) running.
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+        }
+        let _ = self.child.wait();
+    }
+}
+
+/// Whether process `pid` is gone (or a zombie nobody has reaped yet, as happens to orphans
+/// in containers whose init does not reap).
+pub fn process_gone(pid: u32) -> bool {
+    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+        Err(_) => true,
+        // The state follows the command name in parentheses, which may contain spaces.
+        Ok(stat) => stat
+            .rsplit_once(')')
+            .is_some_and(|(_, rest)| rest.trim_start().starts_with('Z')),
+    }
+}
+
+/// Waits up to `limit` for process `pid` to be gone.
+pub fn wait_gone(pid: u32, limit: Duration) -> bool {
+    let deadline = Instant::now() + limit;
+    while Instant::now() < deadline {
+        if process_gone(pid) {
+            return true;
+        }
+        thread::sleep(Duration::from_millis(10));
+    }
+    process_gone(pid)
+}
