@@ -2,12 +2,14 @@
 //!
 //! It does nothing for hosted targets, so host-tests/ can build the library without a linker
 //! script. For bare-metal targets it copies the selected board's memory layout into `OUT_DIR`,
-//! where cortex-m-rt's `link.x` finds it as `memory.x`, and passes the linker scripts to the
-//! binary only (`rustc-link-arg-bins`), so the library and its dependents are unaffected.
+//! where cortex-m-rt's `link.x` finds it as `memory.x` (and, for a board without a PAC, its
+//! interrupt names as `device.x`), and passes the linker scripts to the binary and to the
+//! on-target tests only (`rustc-link-arg-bins`, `rustc-link-arg-tests`), so the library and its
+//! dependents are unaffected.
 
 use std::env;
 use std::fs;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Link-time description of one board.
 struct Board {
@@ -15,16 +17,29 @@ struct Board {
     feature: &'static str,
     /// Memory layout, relative to the package root.
     memory_x: &'static str,
+    /// Interrupt names for cortex-m-rt's `device` feature, relative to the package root, for a
+    /// board whose HAL does not provide them.
+    device_x: Option<&'static str>,
     /// Whether the board logs with defmt, which needs `defmt.x` at link time.
     defmt: bool,
 }
 
 /// Every board the firmware supports; a new board adds its feature and layout here.
-const BOARDS: &[Board] = &[Board {
-    feature: "board-nucleo-f767zi",
-    memory_x: "memory.x",
-    defmt: true,
-}];
+const BOARDS: &[Board] = &[
+    Board {
+        feature: "board-nucleo-f767zi",
+        memory_x: "link/nucleo-f767zi-memory.x",
+        // embassy-stm32's PAC provides its own.
+        device_x: None,
+        defmt: true,
+    },
+    Board {
+        feature: "board-qemu-mps2-an386",
+        memory_x: "link/mps2-an386-memory.x",
+        device_x: Some("link/mps2-an386-device.x"),
+        defmt: false,
+    },
+];
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
@@ -55,21 +70,36 @@ fn main() {
 
     let manifest_dir = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("set by Cargo"));
     let out_dir = PathBuf::from(env::var_os("OUT_DIR").expect("set by Cargo"));
-    let layout = manifest_dir.join(board.memory_x);
-    println!("cargo:rerun-if-changed={}", layout.display());
-    // Copied rather than searched in place so that the file is always named `memory.x`,
-    // whichever board's layout it is.
-    if let Err(err) = fs::copy(&layout, out_dir.join("memory.x")) {
-        panic!("cannot copy {}: {err}", layout.display());
+    // Copied rather than searched in place so that the files always have the names link.x
+    // includes, whichever board's they are.
+    copy_script(&manifest_dir, board.memory_x, &out_dir, "memory.x");
+    if let Some(device_x) = board.device_x {
+        copy_script(&manifest_dir, device_x, &out_dir, "device.x");
     }
     println!("cargo:rustc-link-search={}", out_dir.display());
 
     // Turns off page alignment of output sections, which the linker otherwise requires of
     // memory regions that do not start on a 64K boundary (cortex-m-quickstart#95).
-    println!("cargo:rustc-link-arg-bins=--nmagic");
-    println!("cargo:rustc-link-arg-bins=-Tlink.x");
+    link_arg("--nmagic");
+    link_arg("-Tlink.x");
     if board.defmt {
-        println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+        link_arg("-Tdefmt.x");
+    }
+}
+
+/// Passes a linker argument to the firmware and to the on-target tests (tests/), which are
+/// firmware images too.
+fn link_arg(arg: &str) {
+    println!("cargo:rustc-link-arg-bins={arg}");
+    println!("cargo:rustc-link-arg-tests={arg}");
+}
+
+/// Copies the linker script `from` (relative to the package root) to `OUT_DIR/to`.
+fn copy_script(manifest_dir: &Path, from: &str, out_dir: &Path, to: &str) {
+    let source = manifest_dir.join(from);
+    println!("cargo:rerun-if-changed={}", source.display());
+    if let Err(err) = fs::copy(&source, out_dir.join(to)) {
+        panic!("cannot copy {}: {err}", source.display());
     }
 }
 

@@ -150,6 +150,14 @@ async fn perform_due<T: Transport>(
         let Some(action) = panel.next_action(Instant::now()) else {
             return;
         };
+        if action.is_command() {
+            let request = action.request();
+            info!(
+                "command: Type {} Command {}",
+                request.message_type().raw(),
+                request.command()
+            );
+        }
         let ok = match &action {
             Action::Navigate(task) => {
                 nav.start.signal(task.clone());

@@ -1,13 +1,22 @@
 //! Board support: the only code that knows which pins and peripherals the panel runs on.
 //!
-//! Exactly one `board-*` feature selects the module; each provides `init()` returning a
-//! `Board` with the same field names, so `main` stays board-agnostic.
+//! Exactly one `board-*` feature selects the module; each provides `run(spawner)`, which
+//! brings the board up and runs the panel, so `main` stays board-agnostic.
 
 #[cfg(feature = "board-nucleo-f767zi")]
 mod nucleo_f767zi;
 #[cfg(feature = "board-nucleo-f767zi")]
-pub use nucleo_f767zi::{Board, init};
+pub use nucleo_f767zi::run;
 
-// Without this, naming `_firmware` alone would fail later with unresolved `board::init`.
-#[cfg(not(any(feature = "board-nucleo-f767zi")))]
+#[cfg(feature = "board-qemu-mps2-an386")]
+pub mod qemu_mps2_an386;
+#[cfg(feature = "board-qemu-mps2-an386")]
+pub use qemu_mps2_an386::run;
+
+// The client's TCP transport, for the boards with an embassy-net stack.
+#[cfg(feature = "board-qemu-mps2-an386")]
+pub mod net;
+
+// Without this, naming `_firmware` alone would fail later with unresolved `board::run`.
+#[cfg(not(any(feature = "board-nucleo-f767zi", feature = "board-qemu-mps2-an386")))]
 compile_error!("enable one board feature, such as `board-nucleo-f767zi`");

@@ -1,5 +1,7 @@
 //! ST NUCLEO-F767ZI: STM32F767ZI at 216 MHz, on-board LAN8742A Ethernet PHY, three user LEDs.
 
+use defmt::info;
+use embassy_executor::Spawner;
 use embassy_stm32::Config;
 use embassy_stm32::gpio::{Level, Output, Speed};
 use embassy_stm32::rcc::{
@@ -7,6 +9,14 @@ use embassy_stm32::rcc::{
     Sysclk, mux,
 };
 use embassy_stm32::time::Hertz;
+use embassy_time::Timer;
+// Linked for their side effects only: the defmt RTT transport and the panic handler, which
+// prints the panic message over defmt and halts the probe session with an error.
+use {defmt_rtt as _, panic_probe as _};
+
+// Log lines carry the uptime in microseconds. Defined here rather than by embassy-time's
+// `defmt-timestamp-uptime` feature, which would put defmt into every board's image.
+defmt::timestamp!("{=u64:us}", embassy_time::Instant::now().as_micros());
 
 /// The peripherals the application uses, configured and ready.
 pub struct Board {
@@ -18,7 +28,32 @@ pub struct Board {
     pub fault: Output<'static>,
 }
 
-/// Configures clocks and pins; call once, first thing in `main`.
+/// Brings the board up and runs until reset.
+///
+/// Until the board's Ethernet exists, this is the firmware skeleton: a lamp test, then the
+/// link LED blinking at 1 Hz.
+pub async fn run(_spawner: Spawner) -> ! {
+    let mut board = init();
+    info!("x30-panel {} starting", env!("CARGO_PKG_VERSION"));
+
+    // Lamp test: every LED on for half a second, so a dead LED is noticed at power-up rather
+    // than mistaken for "no fault" later.
+    board.link.set_high();
+    board.activity.set_high();
+    board.fault.set_high();
+    Timer::after_millis(500).await;
+    board.activity.set_low();
+    board.fault.set_low();
+
+    // Blink the link LED at 1 Hz so a human sees the firmware is alive and the clock
+    // configuration (hence the timer rate) is right.
+    loop {
+        board.link.toggle();
+        Timer::after_millis(500).await;
+    }
+}
+
+/// Configures clocks and pins; call once, first thing in `run`.
 pub fn init() -> Board {
     let p = embassy_stm32::init(clock_config());
 

@@ -9,6 +9,7 @@
 //! - [`monitor`]: [`Monitor`] schedules the polls of the robot's state, and [`RobotView`]
 //!   keeps the latest answers with their age.
 //! - [`indicators`]: the three [`Led`]s, as pure functions of the above.
+//! - [`virtual_panel`]: the QEMU board's buttons, as text lines (`+forward`, `-forward`).
 //!
 //! [`Panel`] puts them together for the application. Nothing here does I/O, reads a clock or
 //! allocates: every input carries its time (`now`), and every output is pulled, so host tests
@@ -18,6 +19,7 @@ pub mod buttons;
 pub mod control;
 pub mod indicators;
 pub mod monitor;
+pub mod virtual_panel;
 
 pub use buttons::{Button, ButtonDebouncers, ButtonEvent, Debouncer};
 pub use control::{Action, Control, succeeded};

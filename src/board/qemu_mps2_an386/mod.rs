@@ -1,0 +1,221 @@
+//! QEMU `mps2-an386` (Cortex-M4F at 25 MHz): the virtual panel.
+//!
+//! - **Network**: the LAN9118 ([`lan9118`]) under embassy-net, DHCP (QEMU's user networking
+//!   gives 10.0.2.15), two TCP links to the robot ([`super::net`]).
+//! - **Time**: two CMSDK timers ([`time`]).
+//! - **Buttons**: text lines on UART0 ([`uart`], `-serial stdio`): `+NAME` press, `-NAME`
+//!   release (`x30_panel::panel::virtual_panel`).
+//! - **LEDs and logs**: semihosting ([`semihosting`]): each LED change as `led NAME on|off|blink`.
+//! - **Robot address**: the first argument of the semihosting command line that is an
+//!   address (`-semihosting-config enable=on,target=native,arg=x30-panel,arg=10.0.2.2:PORT`;
+//!   QEMU forwards 10.0.2.2:PORT to the host's 127.0.0.1:PORT), else the build-time one.
+
+mod interrupts;
+pub mod lan9118;
+mod mmio;
+pub mod semihosting;
+pub mod time;
+pub mod uart;
+
+use embassy_executor::Spawner;
+use embassy_net::{Runner, Stack, StackResources};
+use embassy_time::{Duration, Instant};
+use log::{LevelFilter, error, info, warn};
+use static_cell::StaticCell;
+use x30_panel::app::{self, Shared};
+use x30_panel::client::{Backoff, Link, RX_BUF, TX_BUF};
+use x30_panel::config::{Config, RobotAddress, parse_robot};
+use x30_panel::panel::virtual_panel::LineReader;
+use x30_panel::panel::{Indicators, Led};
+
+use self::lan9118::Lan9118;
+use self::uart::Uart0Rx;
+use super::net::{self, TcpTransport};
+
+/// The board's Ethernet address: locally administered (0x02), "X30" and a 1.
+pub const MAC: [u8; 6] = [0x02, 0x00, b'X', b'3', b'0', 0x01];
+
+/// Reconnection delays: quick after a blip, at most every 5 s while the robot is away.
+const BACKOFF: Backoff = Backoff::new(Duration::from_millis(250), Duration::from_secs(5));
+
+/// Sockets of the stack: the two links and DHCP.
+const SOCKETS: usize = 3;
+
+/// What the board and the application share.
+static SHARED: Shared = Shared::new();
+
+/// The network stack's memory.
+static RESOURCES: StaticCell<StackResources<SOCKETS>> = StaticCell::new();
+
+/// One TCP socket's buffers: room for a whole answer and a whole request.
+struct SocketBuffers {
+    /// Received bytes not yet read.
+    rx: [u8; RX_BUF],
+    /// Written bytes not yet acknowledged.
+    tx: [u8; TX_BUF],
+}
+
+/// The control link's socket buffers.
+static CONTROL_BUFFERS: StaticCell<SocketBuffers> = StaticCell::new();
+/// The navigation link's socket buffers.
+static NAVIGATION_BUFFERS: StaticCell<SocketBuffers> = StaticCell::new();
+
+/// Brings the board up and runs the panel, forever.
+pub async fn run(spawner: Spawner) -> ! {
+    semihosting::init_logging(LevelFilter::Info);
+    info!("x30-panel {} on QEMU mps2-an386", env!("CARGO_PKG_VERSION"));
+    let config = config();
+
+    let driver = match Lan9118::new(MAC) {
+        Ok(driver) => driver,
+        Err(e) => {
+            error!(
+                "no Ethernet ({:?}); is QEMU run with -nic user,model=lan9118?",
+                e
+            );
+            semihosting::exit(false);
+        }
+    };
+    // No entropy source on this machine; the seed only varies TCP ports and sequence numbers.
+    let seed = Instant::now().as_ticks() ^ 0x5833_3070_616E_656C;
+    let (stack, runner) = embassy_net::new(
+        driver,
+        net::stack_config(&config.network),
+        RESOURCES.init(StackResources::new()),
+        seed,
+    );
+    let robot = net::endpoint(config.robot);
+    let control = CONTROL_BUFFERS.init(SocketBuffers {
+        rx: [0; RX_BUF],
+        tx: [0; TX_BUF],
+    });
+    let navigation = NAVIGATION_BUFFERS.init(SocketBuffers {
+        rx: [0; RX_BUF],
+        tx: [0; TX_BUF],
+    });
+    let mut control = Link::new(
+        TcpTransport::new(stack, robot, &mut control.rx, &mut control.tx),
+        BACKOFF,
+    );
+    let mut navigation = Link::new(
+        TcpTransport::new(stack, robot, &mut navigation.rx, &mut navigation.tx),
+        BACKOFF,
+    );
+
+    match network_task(runner) {
+        Ok(task) => spawner.spawn(task),
+        Err(e) => error!("cannot start the network task: {:?}", e),
+    }
+    match address_task(stack) {
+        Ok(task) => spawner.spawn(task),
+        Err(e) => error!("cannot start the address task: {:?}", e),
+    }
+    match led_task(&SHARED) {
+        Ok(task) => spawner.spawn(task),
+        Err(e) => error!("cannot start the LED task: {:?}", e),
+    }
+    match Uart0Rx::take().map(|uart| panel_task(uart, &SHARED)) {
+        Some(Ok(task)) => spawner.spawn(task),
+        Some(Err(e)) => error!("cannot start the virtual panel: {:?}", e),
+        None => error!("UART0 is already in use"),
+    }
+
+    app::run(&config, &mut control, &mut navigation, &SHARED).await
+}
+
+/// The build-time configuration, with the robot's address from the command line if it has
+/// one.
+fn config() -> Config {
+    let mut config = Config::from_build_env();
+    for variable in config.problems() {
+        warn!("{} is not valid; its default is used", variable.name());
+    }
+    let mut buf = [0u8; 256];
+    let from_command_line = semihosting::command_line(&mut buf).and_then(robot_argument);
+    match from_command_line {
+        Some(robot) => config.robot = robot,
+        None => info!("no robot address on the command line; using the build-time one"),
+    }
+    let [a, b, c, d] = config.robot.ip;
+    info!("robot at {}.{}.{}.{}:{}", a, b, c, d, config.robot.port);
+    config
+}
+
+/// The first argument after the program's name that is a robot address (`a.b.c.d[:port]`).
+pub fn robot_argument(command_line: &str) -> Option<RobotAddress> {
+    let mut arguments = command_line.split_ascii_whitespace().skip(1);
+    arguments.find_map(|argument| {
+        let robot = parse_robot(argument);
+        if robot.is_none() {
+            warn!(
+                "ignoring command-line argument `{}`: not a.b.c.d[:port]",
+                argument
+            );
+        }
+        robot
+    })
+}
+
+/// Runs the network stack.
+#[embassy_executor::task]
+async fn network_task(mut runner: Runner<'static, Lan9118>) -> ! {
+    runner.run().await
+}
+
+/// Logs the board's address whenever it changes (DHCP lease, loss).
+#[embassy_executor::task]
+async fn address_task(stack: Stack<'static>) -> ! {
+    loop {
+        stack.wait_config_up().await;
+        match stack.config_v4() {
+            Some(v4) => info!("network up: {}", v4.address),
+            None => info!("network up"),
+        }
+        stack.wait_config_down().await;
+        warn!("network down");
+    }
+}
+
+/// Shows the LEDs: logs each change as `led NAME on|off|blink`.
+#[embassy_executor::task]
+async fn led_task(shared: &'static Shared) -> ! {
+    let mut shown = Indicators {
+        link: Led::Off,
+        activity: Led::Off,
+        fault: Led::Off,
+    };
+    loop {
+        let now = shared.indicators.wait().await;
+        for (name, old, new) in [
+            ("link", shown.link, now.link),
+            ("activity", shown.activity, now.activity),
+            ("fault", shown.fault, now.fault),
+        ] {
+            if old != new {
+                info!("led {} {}", name, new.name());
+            }
+        }
+        shown = now;
+    }
+}
+
+/// Reads the virtual panel's lines from UART0 and hands the button changes to the app.
+#[embassy_executor::task]
+async fn panel_task(mut uart: Uart0Rx, shared: &'static Shared) -> ! {
+    let mut lines = LineReader::new();
+    loop {
+        let byte = uart.read().await;
+        match lines.push(byte) {
+            None | Some(Ok(None)) => {}
+            Some(Ok(Some(event))) => {
+                info!(
+                    "button {} {}",
+                    event.button.name(),
+                    if event.pressed { "pressed" } else { "released" }
+                );
+                shared.buttons.send(event).await;
+            }
+            Some(Err(e)) => warn!("virtual panel: {}", e),
+        }
+    }
+}
