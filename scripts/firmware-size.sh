@@ -1,9 +1,13 @@
 #!/usr/bin/env bash
-# Flash (text + rodata + data) and static RAM (data + bss) of the firmware image(s) built by
-# `cargo build --release`.
+# Flash (text + rodata + data) and static RAM (data + bss) of firmware images: the ELF files
+# given as arguments, or the one the last `cargo build --release` wrote (every board's build
+# writes the same path, so measure each right after building it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-for elf in target/thumbv7em-none-eabihf/release/x30-panel; do
+if [ $# -eq 0 ]; then
+    set -- target/thumbv7em-none-eabihf/release/x30-panel
+fi
+for elf in "$@"; do
     [ -f "$elf" ] || { echo "missing $elf: run cargo build --release first" >&2; exit 1; }
     llvm-size -A "$elf" | awk -v elf="$elf" '
         $1 ~ /^\.(vector_table|text|rodata|data)$/ { flash += $2 }

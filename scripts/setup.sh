@@ -15,3 +15,5 @@ apt_need() {
 }
 apt_need llvm llvm-size
 apt_need g++ g++
+# The QEMU board's firmware and on-target tests run in QEMU.
+apt_need qemu-system-arm qemu-system-arm

@@ -20,6 +20,7 @@ step "clippy: firmware target (each feature set)"
 cargo clippy --release -- -D warnings
 cargo clippy --release --lib --features defmt,vendor-extensions -- -D warnings
 cargo clippy --release --lib --no-default-features -- -D warnings
+cargo clippy --release --no-default-features --features board-qemu-mps2-an386 --bins --tests -- -D warnings
 
 step "clippy: host"
 (cd host-tests && cargo clippy --workspace --all-targets -- -D warnings)
@@ -30,6 +31,11 @@ RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --lib --features vendor-extension
 step "firmware build (Nucleo-F767ZI)"
 cargo build --release
 scripts/firmware-size.sh
+
+step "firmware build (QEMU mps2-an386) and on-target tests in QEMU"
+cargo build --release --no-default-features --features board-qemu-mps2-an386
+scripts/firmware-size.sh
+scripts/qemu-test.sh
 
 step "host tests"
 (cd host-tests && cargo test --workspace --all-targets)

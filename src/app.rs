@@ -98,15 +98,17 @@ async fn control_loop<T: Transport>(
 ) -> ! {
     let mut panel = Panel::new(config);
     let mut shown = None;
+    // When the next connection attempt is due. Kept across wake-ups, so that button presses
+    // and idle ticks during an outage do not cut the link's backoff short.
+    let mut retry_at = Instant::now();
     panel.link(LinkState::Connecting, Instant::now());
     loop {
-        let mut wait_until = None;
-        if !link.is_connected() {
+        if !link.is_connected() && Instant::now() >= retry_at {
             panel.link(LinkState::Connecting, Instant::now());
             show(&panel, &mut shown, shared);
             match link.connect().await {
                 Ok(()) => panel.link(LinkState::Connected, Instant::now()),
-                Err(retry_in) => wait_until = Some(Instant::now() + retry_in),
+                Err(retry_in) => retry_at = Instant::now() + retry_in,
             }
         }
         if link.is_connected() {
@@ -114,8 +116,11 @@ async fn control_loop<T: Transport>(
         }
         show(&panel, &mut shown, shared);
         let now = Instant::now();
-        let deadline = wait_until
-            .or_else(|| panel.next_deadline(now))
+        let retry = (!link.is_connected()).then_some(retry_at);
+        let deadline = retry
+            .into_iter()
+            .chain(panel.next_deadline(now))
+            .min()
             .unwrap_or(now + IDLE)
             .min(now + IDLE);
         match select3(

@@ -552,3 +552,73 @@ async fn every_fault_injection_option_is_survived() {
     })
     .await;
 }
+
+/// A transport to a robot that is not there: every connection attempt is refused and counted.
+struct Refused {
+    attempts: std::rc::Rc<std::cell::Cell<u32>>,
+}
+
+impl embedded_io_async::ErrorType for Refused {
+    type Error = embedded_io_async::ErrorKind;
+}
+
+impl embedded_io_async::Read for Refused {
+    async fn read(&mut self, _: &mut [u8]) -> Result<usize, Self::Error> {
+        Err(embedded_io_async::ErrorKind::NotConnected)
+    }
+}
+
+impl embedded_io_async::Write for Refused {
+    async fn write(&mut self, _: &[u8]) -> Result<usize, Self::Error> {
+        Err(embedded_io_async::ErrorKind::NotConnected)
+    }
+
+    async fn flush(&mut self) -> Result<(), Self::Error> {
+        Err(embedded_io_async::ErrorKind::NotConnected)
+    }
+}
+
+impl x30_panel::client::Transport for Refused {
+    async fn connect(&mut self) -> Result<(), Self::Error> {
+        self.attempts.set(self.attempts.get() + 1);
+        Err(embedded_io_async::ErrorKind::ConnectionRefused)
+    }
+
+    async fn close(&mut self) {}
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn reconnection_waits_out_the_backoff_even_while_buttons_are_pressed() {
+    let attempts = std::rc::Rc::new(std::cell::Cell::new(0));
+    let config = Config::default();
+    let shared = Shared::new();
+    // Attempts at 0, 100, 300 and 700 ms, then every 800 ms: 5 in 1.2 s.
+    let backoff = Backoff::new(Duration::from_millis(100), Duration::from_millis(800));
+    let mut control = Link::new(
+        Refused {
+            attempts: attempts.clone(),
+        },
+        backoff,
+    );
+    let mut navigation = Link::new(
+        Refused {
+            attempts: std::rc::Rc::new(std::cell::Cell::new(0)),
+        },
+        backoff,
+    );
+    tokio::select! {
+        _ = app::run(&config, &mut control, &mut navigation, &shared) => unreachable!(),
+        _ = async {
+            // A press every 20 ms wakes the control loop 60 times.
+            for i in 0..60 {
+                press(&shared, Button::Light, i % 2 == 0).await;
+                sleep(20).await;
+            }
+        } => {}
+    }
+    let made = attempts.get();
+    assert!(
+        (3..=6).contains(&made),
+        "{made} connection attempts in 1.2 s with a 100..800 ms backoff"
+    );
+}

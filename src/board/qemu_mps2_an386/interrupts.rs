@@ -51,8 +51,9 @@ pub union Vector {
     reserved: usize,
 }
 
-// The handlers, defined (with `#[unsafe(no_mangle)]`) by the driver that owns each device, or
-// provided as `DefaultHandler` by the linker script.
+// SAFETY: these are the handlers, each defined with this signature (`#[unsafe(no_mangle)]`)
+// by the driver that owns the device, or provided as `DefaultHandler` by the linker script;
+// they are only placed in the table, never called from Rust.
 unsafe extern "C" {
     fn UART0_RX();
     fn TIMER0();

@@ -8,7 +8,9 @@
 /// reads as 0 and writes nothing rather than touching memory the program owns.
 #[derive(Debug, Clone, Copy)]
 pub struct Registers {
+    /// Address of the first register.
     base: usize,
+    /// Size of the block in bytes.
     size: usize,
 }
 

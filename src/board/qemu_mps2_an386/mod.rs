@@ -62,7 +62,7 @@ static NAVIGATION_BUFFERS: StaticCell<SocketBuffers> = StaticCell::new();
 
 /// Brings the board up and runs the panel, forever.
 pub async fn run(spawner: Spawner) -> ! {
-    semihosting::init_logging(LevelFilter::Info);
+    semihosting::init_logging(log_level());
     info!("x30-panel {} on QEMU mps2-an386", env!("CARGO_PKG_VERSION"));
     let config = config();
 
@@ -121,6 +121,14 @@ pub async fn run(spawner: Spawner) -> ! {
     }
 
     app::run(&config, &mut control, &mut navigation, &SHARED).await
+}
+
+/// The log level: `X30_LOG` at build time (`error`, `warn`, `info`, `debug`, `trace`), else
+/// `info`, which shows LED changes, commands and connection changes.
+fn log_level() -> LevelFilter {
+    option_env!("X30_LOG")
+        .and_then(|level| level.trim().parse().ok())
+        .unwrap_or(LevelFilter::Info)
 }
 
 /// The build-time configuration, with the robot's address from the command line if it has
