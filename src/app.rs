@@ -12,8 +12,12 @@
 //!
 //! Both loops run in one task (`join`), so they share state through `Cell`s and signals
 //! without locks.
+//!
+//! The control loop counts its turns in [`Shared::heartbeat`], so that a board's watchdog can
+//! tell a working application from a hung one.
 
 use core::cell::Cell;
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_futures::join::join;
 use embassy_futures::select::{Either3, select3};
@@ -41,6 +45,10 @@ pub struct Shared {
     pub buttons: Channel<CriticalSectionRawMutex, ButtonEvent, BUTTON_QUEUE>,
     /// The latest LED states, for the board's LED task.
     pub indicators: Signal<CriticalSectionRawMutex, Indicators>,
+    /// Grows (wrapping) at every turn of the control loop and before every request: a board
+    /// may feed its watchdog only while it moves. A turn may take as long as a connection
+    /// attempt or a request with its timeout.
+    pub heartbeat: AtomicU32,
 }
 
 impl Shared {
@@ -49,7 +57,13 @@ impl Shared {
         Self {
             buttons: Channel::new(),
             indicators: Signal::new(),
+            heartbeat: AtomicU32::new(0),
         }
+    }
+
+    /// Shows progress on [`Shared::heartbeat`].
+    fn beat(&self) {
+        self.heartbeat.fetch_add(1, Ordering::Relaxed);
     }
 }
 
@@ -134,6 +148,7 @@ async fn control_loop<T: Transport>(
             Either3::Second(end) => navigation_ended(&mut panel, end),
             Either3::Third(()) => {}
         }
+        shared.beat();
     }
 }
 
@@ -146,6 +161,7 @@ async fn perform_due<T: Transport>(
     nav: &NavSignals,
 ) {
     loop {
+        shared.beat();
         while let Ok(event) = shared.buttons.try_receive() {
             panel.button(event.button, event.pressed, Instant::now());
         }

@@ -10,6 +10,13 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+// Otherwise the mistake shows only at link time, as undefined `_defmt_*` symbols.
+#[cfg(all(feature = "defmt", not(target_os = "none")))]
+compile_error!(
+    "the `defmt` feature links only on bare-metal targets, and the default board feature turns \
+     it on: on the host, depend on x30-panel with `default-features = false`"
+);
+
 // First, so that every module below can use the logging macros.
 #[macro_use]
 mod fmt;

@@ -5,6 +5,7 @@ mod common;
 
 use common::TokioTransport;
 use embassy_time::Duration;
+use std::sync::atomic::Ordering;
 use std::time::Duration as StdDuration;
 use x30_panel::app::{self, Shared};
 use x30_panel::client::{Backoff, Link};
@@ -104,6 +105,46 @@ impl Leds {
         }
         last
     }
+}
+
+/// The heartbeat's count after `ms` milliseconds minus the count before.
+async fn beats_during(shared: &Shared, ms: u64) -> u32 {
+    let before = shared.heartbeat.load(Ordering::Relaxed);
+    sleep(ms).await;
+    shared
+        .heartbeat
+        .load(Ordering::Relaxed)
+        .wrapping_sub(before)
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn heartbeat_moves_while_connected_and_while_the_robot_is_away() {
+    // Connected and idle: the control loop turns at least every 500 ms (polls come sooner).
+    let sim = simulator(1.0);
+    let connected = with_app(&sim, async |shared| {
+        assert!(
+            wait_for_log(&sim, 3000, |l| polls(l, 1002) > 0).await,
+            "the panel polls the robot"
+        );
+        beats_during(shared, 1500).await
+    })
+    .await;
+    assert!(connected >= 3, "{connected} beats in 1.5 s while connected");
+
+    // No robot at all: every connection is refused, and the loop still turns while it backs off.
+    let closed = std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|listener| listener.local_addr())
+        .expect("a free port");
+    let config = Config::default();
+    let shared = Shared::new();
+    let backoff = Backoff::new(Duration::from_millis(50), Duration::from_millis(400));
+    let mut control = Link::new(TokioTransport::new(closed), backoff);
+    let mut navigation = Link::new(TokioTransport::new(closed), backoff);
+    let away = tokio::select! {
+        _ = app::run(&config, &mut control, &mut navigation, &shared) => unreachable!(),
+        beats = beats_during(&shared, 1500) => beats,
+    };
+    assert!(away >= 3, "{away} beats in 1.5 s without a robot");
 }
 
 #[tokio::test(flavor = "current_thread")]

@@ -14,7 +14,7 @@ pub mod qemu_mps2_an386;
 pub use qemu_mps2_an386::run;
 
 // The client's TCP transport, for the boards with an embassy-net stack.
-#[cfg(feature = "board-qemu-mps2-an386")]
+#[cfg(any(feature = "board-nucleo-f767zi", feature = "board-qemu-mps2-an386"))]
 pub mod net;
 
 // Without this, naming `_firmware` alone would fail later with unresolved `board::run`.

@@ -1,73 +1,304 @@
-//! ST NUCLEO-F767ZI: STM32F767ZI at 216 MHz, on-board LAN8742A Ethernet PHY, three user LEDs.
+//! ST NUCLEO-F767ZI (MB1137): STM32F767ZI at 216 MHz, on-board LAN8742A Ethernet PHY, three
+//! user LEDs, ST-LINK for flashing and defmt logs over RTT.
+//!
+//! - **Network**: the STM32's Ethernet MAC in RMII mode with the LAN8742A at PHY address 0,
+//!   under embassy-net: DHCP by default or the static address of `X30_DHCP=0 X30_IP=…`
+//!   (`x30_panel::config`), a random seed from the RNG, and two TCP links to the robot
+//!   ([`super::net`]). The MAC address is locally administered and derived from the chip's
+//!   unique ID, so it is stable per board (DHCP reservations work) and unique between boards.
+//! - **Buttons**: 14 GPIO inputs with the MCU's pull-ups, pressed = low (a button connects its
+//!   pin to GND), sampled every 2 ms and debounced ([`buttons`]).
+//! - **LEDs**: LD1 green = link, LD2 blue = activity, LD3 red = fault ([`leds`]).
+//! - **Watchdog**: the IWDG, 1.5 s, fed only while the application loop shows progress
+//!   ([`watchdog`]).
+//!
+//! # Pin map
+//!
+//! All 14 buttons sit on the right-hand column of the Zio connector CN10 (the even pins),
+//! with a GND pin (CN10-22) among them for the common return. None of these pins is used by
+//! the Ethernet RMII (PA1, PA2, PA7, PB13, PC1, PC4, PC5, PG11, PG13), the ST-LINK virtual
+//! COM port (USART3, PD8/PD9), USB OTG FS (PA8–PA12, PG6, PG7), the user LEDs (PB0, PB7,
+//! PB14), the user button (PC13), SWD/SWO (PA13, PA14, PB3) or the oscillators (PH0, PH1,
+//! PC14, PC15).
+//!
+//! | button | pin | CN10 pin | Zio label |
+//! |---|---|---|---|
+//! | `forward` | PF13 | 2 | D7 |
+//! | `backward` | PE9 | 4 | D6 |
+//! | `turn-left` | PE11 | 6 | D5 |
+//! | `turn-right` | PF14 | 8 | D4 |
+//! | `strafe-left` | PE13 | 10 | D3 |
+//! | `strafe-right` | PF15 | 12 | D2 |
+//! | `stop` | PG14 | 14 | D1 |
+//! | `estop` | PG9 | 16 | D0 |
+//! | `stop-stepping` | PE8 | 18 | D42 |
+//! | `lie-down` | PE7 | 20 | D41 |
+//! | (common) | GND | 22 | GND |
+//! | `gait` | PE10 | 24 | D40 |
+//! | `light` | PE12 | 26 | D39 |
+//! | `dock` | PE14 | 28 | D38 |
+//! | `cancel` | PE15 | 30 | D37 |
+//!
+//! | LED | pin | shows |
+//! |---|---|---|
+//! | LD1 green | PB0 | link: off — no network; blinking — connecting to the robot; on — connected |
+//! | LD2 blue | PB7 | activity: a flash per command; steady while a navigation task runs |
+//! | LD3 red | PB14 | fault: on — the robot reports a fault; blinking — status unreadable or the last command failed |
+//!
+//! D0/D1 (PG9/PG14) are USART6 on Arduino shields, not the ST-LINK's serial port, which is
+//! USART3 on PD8/PD9; a shield must not drive them.
 
-use defmt::info;
-use embassy_executor::Spawner;
-use embassy_stm32::Config;
+mod buttons;
+mod leds;
+mod watchdog;
+
+use defmt::{error, info, warn};
+use embassy_executor::{SpawnError, SpawnToken, Spawner};
+use embassy_futures::select::{Either, select};
+use embassy_net::{Runner, Stack, StackResources};
+use embassy_stm32::eth::{self, Ethernet, GenericPhy, PacketQueue, Sma};
 use embassy_stm32::gpio::{Level, Output, Speed};
+use embassy_stm32::peripherals::{ETH, ETH_SMA, RNG};
 use embassy_stm32::rcc::{
     AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv, PllSource,
     Sysclk, mux,
 };
+use embassy_stm32::rng::{self, Rng};
 use embassy_stm32::time::Hertz;
-use embassy_time::Timer;
+use embassy_stm32::{Config as HalConfig, bind_interrupts, uid};
+use embassy_time::Duration;
+use static_cell::ConstStaticCell;
+use x30_panel::app::{self, Shared};
+use x30_panel::client::{Backoff, Link, RX_BUF, TX_BUF};
+use x30_panel::config::{Config, Network};
 // Linked for their side effects only: the defmt RTT transport and the panic handler, which
-// prints the panic message over defmt and halts the probe session with an error.
+// prints the panic message over defmt and halts the probe session with an error. Without a
+// probe the halted core stops feeding the watchdog, which resets the board.
 use {defmt_rtt as _, panic_probe as _};
+
+use self::buttons::{Buttons, button_task};
+use self::leds::{Leds, led_task};
+use self::watchdog::watchdog_task;
+use super::net::{self, TcpTransport};
 
 // Log lines carry the uptime in microseconds. Defined here rather than by embassy-time's
 // `defmt-timestamp-uptime` feature, which would put defmt into every board's image.
 defmt::timestamp!("{=u64:us}", embassy_time::Instant::now().as_micros());
 
-/// The peripherals the application uses, configured and ready.
-pub struct Board {
-    /// Green user LED LD1 (PB0): state of the link to the robot.
-    pub link: Output<'static>,
-    /// Blue user LED LD2 (PB7): commands sent, navigation task running.
-    pub activity: Output<'static>,
-    /// Red user LED LD3 (PB14): robot or panel fault.
-    pub fault: Output<'static>,
+bind_interrupts!(struct Irqs {
+    ETH => eth::InterruptHandler;
+    RNG => rng::InterruptHandler<RNG>;
+});
+
+/// The LAN8742A's SMI (MDIO) address on the Nucleo-144 boards, as ST's own examples use it.
+const PHY_ADDRESS: u8 = 0;
+
+/// Ethernet DMA descriptors (and frame buffers) for sending: four 1.5 KiB frames.
+const TX_FRAMES: usize = 4;
+/// Ethernet DMA descriptors (and frame buffers) for receiving: four 1.5 KiB frames, enough
+/// for the robot's largest answer (about 1.2 KiB) plus ARP and DHCP traffic meanwhile.
+const RX_FRAMES: usize = 4;
+
+/// The Ethernet driver with the LAN8742A driven through the MAC's management interface.
+type Device = Ethernet<'static, ETH, GenericPhy<Sma<'static, ETH_SMA>>>;
+
+/// Sockets of the stack: the two links and DHCP.
+const SOCKETS: usize = 3;
+
+/// Reconnection delays: quick after a blip, at most every 5 s while the robot is away.
+const BACKOFF: Backoff = Backoff::new(Duration::from_millis(250), Duration::from_secs(5));
+
+/// What the board and the application share.
+static SHARED: Shared = Shared::new();
+
+/// The Ethernet DMA's descriptors and frame buffers (zeroed, so in `.bss`).
+static PACKETS: ConstStaticCell<PacketQueue<TX_FRAMES, RX_FRAMES>> =
+    ConstStaticCell::new(PacketQueue::new());
+
+/// The network stack's memory.
+static RESOURCES: ConstStaticCell<StackResources<SOCKETS>> =
+    ConstStaticCell::new(StackResources::new());
+
+/// One TCP socket's buffers: room for a whole answer and a whole request.
+struct SocketBuffers {
+    /// Received bytes not yet read.
+    rx: [u8; RX_BUF],
+    /// Written bytes not yet acknowledged.
+    tx: [u8; TX_BUF],
 }
 
-/// Brings the board up and runs until reset.
-///
-/// Until the board's Ethernet exists, this is the firmware skeleton: a lamp test, then the
-/// link LED blinking at 1 Hz.
-pub async fn run(_spawner: Spawner) -> ! {
-    let mut board = init();
-    info!("x30-panel {} starting", env!("CARGO_PKG_VERSION"));
-
-    // Lamp test: every LED on for half a second, so a dead LED is noticed at power-up rather
-    // than mistaken for "no fault" later.
-    board.link.set_high();
-    board.activity.set_high();
-    board.fault.set_high();
-    Timer::after_millis(500).await;
-    board.activity.set_low();
-    board.fault.set_low();
-
-    // Blink the link LED at 1 Hz so a human sees the firmware is alive and the clock
-    // configuration (hence the timer rate) is right.
-    loop {
-        board.link.toggle();
-        Timer::after_millis(500).await;
+impl SocketBuffers {
+    /// Zeroed buffers, for a `static`.
+    const fn new() -> Self {
+        Self {
+            rx: [0; RX_BUF],
+            tx: [0; TX_BUF],
+        }
     }
 }
 
-/// Configures clocks and pins; call once, first thing in `run`.
-pub fn init() -> Board {
+/// The control link's socket buffers.
+static CONTROL_BUFFERS: ConstStaticCell<SocketBuffers> = ConstStaticCell::new(SocketBuffers::new());
+/// The navigation link's socket buffers.
+static NAVIGATION_BUFFERS: ConstStaticCell<SocketBuffers> =
+    ConstStaticCell::new(SocketBuffers::new());
+
+/// Brings the board up and runs the panel, forever.
+pub async fn run(spawner: Spawner) -> ! {
     let p = embassy_stm32::init(clock_config());
+    info!("x30-panel {} on NUCLEO-F767ZI", env!("CARGO_PKG_VERSION"));
+    watchdog::log_reset_cause();
+    let dog = watchdog::start(p.IWDG);
+    let config = config();
 
     // The LEDs are active high; all start off so that a lit LED always means something.
-    Board {
+    let leds = Leds {
         link: Output::new(p.PB0, Level::Low, Speed::Low),
         activity: Output::new(p.PB7, Level::Low, Speed::Low),
         fault: Output::new(p.PB14, Level::Low, Speed::Low),
+    };
+    // In the order of `Button::ALL`; the pin map in the module docs lists the same.
+    let buttons = Buttons::new([
+        p.PF13.into(), // forward
+        p.PE9.into(),  // backward
+        p.PE11.into(), // turn-left
+        p.PF14.into(), // turn-right
+        p.PE13.into(), // strafe-left
+        p.PF15.into(), // strafe-right
+        p.PG14.into(), // stop
+        p.PG9.into(),  // estop
+        p.PE8.into(),  // stop-stepping
+        p.PE7.into(),  // lie-down
+        p.PE10.into(), // gait
+        p.PE12.into(), // light
+        p.PE14.into(), // dock
+        p.PE15.into(), // cancel
+    ]);
+
+    // The seed picks TCP ports and initial sequence numbers: after a reset, the robot must not
+    // mistake a new connection for the old one.
+    let seed = Rng::new(p.RNG, Irqs).next_u64();
+    let mac = mac_address();
+    info!(
+        "MAC {=u8:02x}:{=u8:02x}:{=u8:02x}:{=u8:02x}:{=u8:02x}:{=u8:02x}",
+        mac[0], mac[1], mac[2], mac[3], mac[4], mac[5]
+    );
+    let phy = GenericPhy::new(Sma::new(p.ETH_SMA, p.PA2, p.PC1), PHY_ADDRESS);
+    let device: Device = Ethernet::new_with_phy(
+        PACKETS.take(),
+        p.ETH,
+        Irqs,
+        p.PA1,  // REF_CLK
+        p.PA7,  // CRS_DV
+        p.PC4,  // RXD0
+        p.PC5,  // RXD1
+        p.PG13, // TXD0
+        p.PB13, // TXD1
+        p.PG11, // TX_EN
+        mac,
+        phy,
+    );
+    let (stack, runner) = embassy_net::new(
+        device,
+        net::stack_config(&config.network),
+        RESOURCES.take(),
+        seed,
+    );
+
+    spawn(&spawner, "watchdog", watchdog_task(dog, &SHARED));
+    spawn(&spawner, "network", network_task(runner));
+    spawn(&spawner, "address", address_task(stack));
+    spawn(&spawner, "LED", led_task(leds, &SHARED, stack));
+    spawn(
+        &spawner,
+        "button",
+        button_task(buttons, config.debounce, &SHARED),
+    );
+
+    let robot = net::endpoint(config.robot);
+    let control = CONTROL_BUFFERS.take();
+    let navigation = NAVIGATION_BUFFERS.take();
+    let mut control = Link::new(
+        TcpTransport::new(stack, robot, &mut control.rx, &mut control.tx),
+        BACKOFF,
+    );
+    let mut navigation = Link::new(
+        TcpTransport::new(stack, robot, &mut navigation.rx, &mut navigation.tx),
+        BACKOFF,
+    );
+    app::run(&config, &mut control, &mut navigation, &SHARED).await
+}
+
+/// Starts a task, or logs why it could not start. Each task is spawned once, so this fails
+/// only if the code changes; a missing watchdog task then shows as a reset loop.
+fn spawn<S>(spawner: &Spawner, name: &str, task: Result<SpawnToken<S>, SpawnError>) {
+    match task {
+        Ok(token) => spawner.spawn(token),
+        Err(e) => error!("cannot start the {} task: {:?}", name, e),
+    }
+}
+
+/// The build-time configuration, with its invalid settings logged.
+fn config() -> Config {
+    let config = Config::from_build_env();
+    for variable in config.problems() {
+        warn!("{} is not valid; its default is used", variable.name());
+    }
+    let [a, b, c, d] = config.robot.ip;
+    info!("robot at {}.{}.{}.{}:{}", a, b, c, d, config.robot.port);
+    match config.network {
+        Network::Dhcp => info!("network: DHCP"),
+        Network::Static(s) => {
+            let [a, b, c, d] = s.address;
+            info!(
+                "network: static {}.{}.{}.{}/{}, gateway {}",
+                a, b, c, d, s.prefix_len, s.gateway
+            );
+        }
+    }
+    info!("configuration: {}", config);
+    config
+}
+
+/// A locally administered, unicast MAC address derived from the chip's 96-bit unique ID:
+/// the same on every start of one board, different between boards (with the odds of a
+/// 40-bit hash).
+fn mac_address() -> [u8; 6] {
+    // FNV-1a: spreads the ID's few varying bits (wafer position, lot) over all bytes.
+    let hash = uid::uid().iter().fold(0xcbf2_9ce4_8422_2325_u64, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    });
+    let [h0, h1, h2, h3, h4, ..] = hash.to_le_bytes();
+    // 0x02: locally administered (bit 1), unicast (bit 0 clear).
+    [0x02, h0, h1, h2, h3, h4]
+}
+
+/// Runs the network stack: the Ethernet driver, ARP, DHCP and TCP.
+#[embassy_executor::task]
+async fn network_task(mut runner: Runner<'static, Device>) -> ! {
+    runner.run().await
+}
+
+/// Logs the Ethernet link and the board's address whenever they change.
+#[embassy_executor::task]
+async fn address_task(stack: Stack<'static>) -> ! {
+    loop {
+        stack.wait_link_up().await;
+        info!("Ethernet link up");
+        if let Either::First(()) = select(stack.wait_config_up(), stack.wait_link_down()).await {
+            match stack.config_v4() {
+                Some(v4) => info!("network up: {}", v4.address),
+                None => info!("network up"),
+            }
+            stack.wait_link_down().await;
+        }
+        warn!("Ethernet link down");
     }
 }
 
 /// Clock tree: 216 MHz system clock (the F767's maximum) from the ST-LINK's 8 MHz MCO.
-fn clock_config() -> Config {
-    let mut config = Config::default();
+fn clock_config() -> HalConfig {
+    let mut config = HalConfig::default();
     let rcc = &mut config.rcc;
     // The Nucleo has no HSE crystal fitted (X3); the ST-LINK drives 8 MHz into OSC_IN, so the
     // oscillator must be bypassed.

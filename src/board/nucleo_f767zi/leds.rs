@@ -1,0 +1,73 @@
+//! The three user LEDs, showing what the application publishes in `Shared::indicators`.
+
+use embassy_futures::select::{Either, select};
+use embassy_net::Stack;
+use embassy_stm32::gpio::Output;
+use embassy_time::{Instant, Timer};
+use x30_panel::app::Shared;
+use x30_panel::panel::indicators::BLINK_HALF_PERIOD;
+use x30_panel::panel::{Indicators, Led};
+
+/// How long every LED lights at power-up.
+const LAMP_TEST_MS: u64 = 500;
+
+/// The user LEDs, all active high.
+pub struct Leds {
+    /// Green LD1 (PB0): the link to the robot.
+    pub link: Output<'static>,
+    /// Blue LD2 (PB7): commands sent, navigation task running.
+    pub activity: Output<'static>,
+    /// Red LD3 (PB14): robot or panel fault.
+    pub fault: Output<'static>,
+}
+
+impl Leds {
+    /// Lights or darkens each LED as `shown` says at `now`.
+    fn show(&mut self, shown: &Indicators, now: Instant) {
+        for (led, output) in [
+            (shown.link, &mut self.link),
+            (shown.activity, &mut self.activity),
+            (shown.fault, &mut self.fault),
+        ] {
+            output.set_level(led.is_lit(now).into());
+        }
+    }
+}
+
+/// Runs a lamp test, then shows the latest indicators forever, blinking included.
+///
+/// The link LED stays dark while the board has no network (no Ethernet link, or no address
+/// yet), whatever the application says: the application only knows whether the robot answers,
+/// and "off — no network" is what DESIGN.md asks the green LED to show.
+#[embassy_executor::task]
+pub async fn led_task(mut leds: Leds, shared: &'static Shared, stack: Stack<'static>) -> ! {
+    // A dead LED is noticed at power-up rather than mistaken for "no fault" later.
+    let all = Indicators {
+        link: Led::On,
+        activity: Led::On,
+        fault: Led::On,
+    };
+    leds.show(&all, Instant::now());
+    Timer::after_millis(LAMP_TEST_MS).await;
+
+    let mut latest = Indicators {
+        link: Led::Off,
+        activity: Led::Off,
+        fault: Led::Off,
+    };
+    loop {
+        let now = Instant::now();
+        let mut shown = latest;
+        if !(stack.is_link_up() && stack.is_config_up()) {
+            shown.link = Led::Off;
+        }
+        leds.show(&shown, now);
+        // Blinking LEDs change at every half period; waking there also notices the network
+        // coming and going within a quarter of a second.
+        let half = BLINK_HALF_PERIOD.as_ticks().max(1);
+        let next_edge = Instant::from_ticks((now.as_ticks() / half + 1) * half);
+        if let Either::First(new) = select(shared.indicators.wait(), Timer::at(next_edge)).await {
+            latest = new;
+        }
+    }
+}
