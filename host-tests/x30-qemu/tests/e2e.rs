@@ -351,7 +351,7 @@ fn after_the_robot_drops_the_connection_the_firmware_reconnects_and_polls_again(
 }
 
 #[test]
-fn leds_follow_the_robots_battery() {
+fn leds_follow_the_robots_battery_and_faults() {
     let Some(turn) = turn() else { return };
     let sim = simulator();
     let panel = boot(&turn, &sim);
@@ -367,8 +367,23 @@ fn leds_follow_the_robots_battery() {
         l == "led fault on"
     });
     sim.robot(|r| r.set_battery(90.0));
-    panel.expect_stdout(at + 1, REACTION, "`led fault off` at 90 %", |l| {
+    let (at, _) = panel.expect_stdout(at + 1, REACTION, "`led fault off` at 90 %", |l| {
         l == "led fault off"
     });
+    // A motor over 80 °C is a fault of its own (MotorState 1).
+    sim.robot(|r| r.set_motor_temperatures(95.0));
+    let (at, _) = panel.expect_stdout(
+        at + 1,
+        REACTION,
+        "`led fault on` when a motor overheats",
+        |l| l == "led fault on",
+    );
+    sim.robot(|r| r.set_motor_temperatures(40.0));
+    panel.expect_stdout(
+        at + 1,
+        REACTION,
+        "`led fault off` when the motors cool",
+        |l| l == "led fault off",
+    );
     finish(panel);
 }
