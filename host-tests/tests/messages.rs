@@ -213,6 +213,11 @@ fn status_all_zero_is_unavailable() {
         panic!()
     };
     assert!(s.is_unavailable());
+    assert_eq!(
+        s,
+        RobotStatus::UNAVAILABLE,
+        "the all-zero answer is the named constant"
+    );
     let moved = RobotStatus { pos_x: 0.1, ..s };
     assert!(!moved.is_unavailable());
     let charged = RobotStatus {

@@ -64,7 +64,7 @@ fn status_answers_release_the_estop_lock() {
     assert!(p.control().motion_locked());
     assert_eq!(p.indicators(at(30)).fault, Led::On);
     // An all-zero status says "lying down" but means nothing.
-    p.response(&Response::Status(unavailable_status()), at(40));
+    p.response(&Response::Status(RobotStatus::UNAVAILABLE), at(40));
     assert!(p.control().motion_locked());
     p.response(&Response::Status(status()), at(50));
     assert!(!p.control().motion_locked());

@@ -33,7 +33,7 @@ fn link_led_rules() {
     // Connected, but the status cannot be read (yet, any more, or at all).
     assert_eq!(link_led(LinkState::Connected, &empty, at(100)), Led::Blink);
     assert_eq!(link_led(LinkState::Connected, &fresh, at(2000)), Led::Blink);
-    let zero = view_with(unavailable_status());
+    let zero = view_with(RobotStatus::UNAVAILABLE);
     assert_eq!(link_led(LinkState::Connected, &zero, at(100)), Led::Blink);
 }
 
@@ -123,7 +123,7 @@ fn stale_or_unavailable_status_blinks() {
         fault_led(LinkState::Connected, &v, false, at(2000)),
         Led::Blink
     );
-    assert_eq!(fault_of(unavailable_status()), Led::Blink);
+    assert_eq!(fault_of(RobotStatus::UNAVAILABLE), Led::Blink);
     let empty = RobotView::new(&Config::default());
     assert_eq!(
         fault_led(LinkState::Connected, &empty, false, at(0)),

@@ -195,7 +195,7 @@ fn status_older_than_2_s_is_unavailable() {
 #[test]
 fn all_zero_status_is_unavailable() {
     let mut v = RobotView::new(&Config::default());
-    v.update(&Response::Status(unavailable_status()), at(0));
+    v.update(&Response::Status(RobotStatus::UNAVAILABLE), at(0));
     assert!(!v.status_readable(at(0)));
     assert_eq!(v.status(at(0)), None);
 }

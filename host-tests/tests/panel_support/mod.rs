@@ -82,33 +82,6 @@ pub fn status() -> RobotStatus {
     }
 }
 
-/// The all-zero status the robot sends when it cannot read its state.
-pub fn unavailable_status() -> RobotStatus {
-    RobotStatus {
-        motion_state: MotionState::LyingDown,
-        pos_x: 0.0,
-        pos_y: 0.0,
-        pos_z: 0.0,
-        roll: 0.0,
-        pitch: 0.0,
-        yaw: 0.0,
-        speed: 0.0,
-        cur_odom: 0.0,
-        sum_odom: 0.0,
-        res: 0.0,
-        x0: 0.0,
-        y0: 0.0,
-        h: 0,
-        electricity: 0,
-        location: Location::Localized,
-        gait_state: GaitState::Walk,
-        motor_state: MotorState::Normal,
-        charge_state: ChargeState::NotCharging,
-        control_mode: ControlMode::Manual,
-        on_dock_state: OnDockState::OffDock,
-    }
-}
-
 /// A healthy battery answer.
 pub fn battery() -> Battery {
     Battery {

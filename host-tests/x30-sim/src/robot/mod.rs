@@ -698,7 +698,7 @@ impl Robot {
     /// The 1002 answer; all items 0 while the navigation program does not run.
     pub fn status(&self) -> RobotStatus {
         if !self.navigation_running {
-            return unavailable_status();
+            return RobotStatus::UNAVAILABLE;
         }
         RobotStatus {
             motion_state: self.state,
@@ -802,33 +802,6 @@ impl Robot {
 
     fn is_charging(&self) -> bool {
         self.on_dock || self.charger_connected
-    }
-}
-
-/// A 1002 answer with every item 0: the robot's "status unavailable".
-fn unavailable_status() -> RobotStatus {
-    RobotStatus {
-        motion_state: MotionState::from_raw(0),
-        pos_x: 0.0,
-        pos_y: 0.0,
-        pos_z: 0.0,
-        roll: 0.0,
-        pitch: 0.0,
-        yaw: 0.0,
-        speed: 0.0,
-        cur_odom: 0.0,
-        sum_odom: 0.0,
-        res: 0.0,
-        x0: 0.0,
-        y0: 0.0,
-        h: 0,
-        electricity: 0,
-        location: Location::from_raw(0),
-        gait_state: GaitState::from_raw(0),
-        motor_state: MotorState::from_raw(0),
-        charge_state: ChargeState::from_raw(0),
-        control_mode: ControlMode::from_raw(0),
-        on_dock_state: OnDockState::from_raw(0),
     }
 }
 
