@@ -1,43 +1,64 @@
-//! The application: the panel's logic driving the two client links. Board-agnostic.
+//! The application: the panel's logic driving three connections to the robot.
+//! Board-agnostic.
 //!
-//! The board hands over two [`Link`]s (control and navigation) and a [`Shared`] with the
-//! button events it produces and the LED states it shows; [`run`] does the rest, forever:
+//! The board hands over three [`Link`]s ([`Links`]) and a [`Shared`] with the button events
+//! it produces and the LED states it shows; [`run`] does the rest, forever, in five loops
+//! joined in one task (so they share the [`Panel`] through a `RefCell`, without locks):
 //!
-//! - the control loop connects (with backoff), feeds button events, answers and link
-//!   changes into the [`Panel`], sends what the panel asks for on the control link —
-//!   commands before polls — and publishes the LED states;
-//! - the navigation loop waits for a task, sends its 1003 on the navigation link and holds
-//!   that connection open until the answer, because the robot stops a task whose client
-//!   disconnects (ErrorStatus 41802).
+//! - the **button** loop hands each debounced event to the panel the moment it arrives;
+//! - the **command** loop writes what the panel asks for on the command connection without
+//!   waiting for earlier answers, so a stop goes on the wire at once whatever is pending;
+//!   it matches the answers as they come, gives up on requests after [`REQUEST_TIMEOUT`],
+//!   holds motion back while answers are overdue, and reconnects when the robot falls
+//!   silent;
+//! - the **poll** loop asks for the robot's state on a connection of its own, one request
+//!   at a time, so a robot slow to answer polls never holds a command back;
+//! - the **navigation** loop opens the navigation connection for each task, sends its 1003
+//!   unless the task was withdrawn meanwhile, and holds that connection open until the
+//!   answer, because the robot stops a task whose client disconnects (ErrorStatus 41802);
+//! - the **LED** loop publishes the LED states on its own schedule, so they never freeze
+//!   while a request is slow.
 //!
-//! Both loops run in one task (`join`), so they share state through `Cell`s and signals
-//! without locks.
-//!
-//! The control loop counts its turns in [`Shared::heartbeat`], so that a board's watchdog can
-//! tell a working application from a hung one.
+//! The command loop counts its turns in [`Shared`]'s progress ([`Path::Commands`]); it turns
+//! at least every [`IDLE`] while it can make progress, so that a board's watchdog can tell
+//! a working application from a hung one.
 
-use core::cell::Cell;
-use core::sync::atomic::{AtomicU32, Ordering};
+use core::cell::{Cell, RefCell};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-use embassy_futures::join::join;
-use embassy_futures::select::{Either3, select3};
+use embassy_futures::join::join5;
+use embassy_futures::select::{Either, Either3, select, select3};
 use embassy_sync::blocking_mutex::raw::{CriticalSectionRawMutex, NoopRawMutex};
 use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
-use embassy_time::{Duration, Instant, Timer};
+use embassy_time::{Duration, Instant, Timer, with_timeout};
 
-use crate::client::{ClientError, Link, RobotClock, Transport};
+use crate::client::{ClientError, Health, Link, RobotClock, Transport};
 use crate::config::Config;
-use crate::panel::{Action, ButtonEvent, Indicators, LinkState, Panel, succeeded};
-use crate::proto::message::{NavResult, NavTask, Response};
+use crate::panel::{ButtonEvent, Connection, ConnectionState, Indicators, Panel};
+use crate::proto::codes::MessageType;
+use crate::proto::message::{NavResult, Request, Response};
 
-/// How many button events may wait while a request is in flight.
+/// How many button events may wait for the application.
 pub const BUTTON_QUEUE: usize = 16;
-/// How long a short request may take before it counts as failed.
+/// How long a command or poll may wait for its answer before it counts as failed.
 pub const REQUEST_TIMEOUT: Duration = Duration::from_millis(1500);
-/// Longest sleep of the control loop without an event: keeps it responsive to changes
-/// nothing signals.
-const IDLE: Duration = Duration::from_millis(500);
+/// Longest sleep of a loop without an event: keeps the progress counter moving.
+pub const IDLE: Duration = Duration::from_millis(500);
+/// How long a cancelled task's 1003 answer may take before its connection is closed.
+pub const CANCEL_GRACE: Duration = Duration::from_secs(2);
+/// Longest time between two LED updates, so that a network change shows without an event.
+const LED_REFRESH: Duration = Duration::from_millis(100);
+
+/// A part of the firmware whose progress the watchdog checks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Path {
+    /// The board's button task: reads the buttons and hands over their events.
+    Buttons,
+    /// The application's command loop: writes commands to the robot.
+    Commands,
+}
 
 /// What the board and the application exchange.
 pub struct Shared {
@@ -45,25 +66,49 @@ pub struct Shared {
     pub buttons: Channel<CriticalSectionRawMutex, ButtonEvent, BUTTON_QUEUE>,
     /// The latest LED states, for the board's LED task.
     pub indicators: Signal<CriticalSectionRawMutex, Indicators>,
-    /// Grows (wrapping) at every turn of the control loop and before every request: a board
-    /// may feed its watchdog only while it moves. A turn may take as long as a connection
-    /// attempt or a request with its timeout.
-    pub heartbeat: AtomicU32,
+    /// Whether the board has a network (a link and an address), from the board.
+    network: AtomicBool,
+    /// Progress counters, one per [`Path`], growing (wrapping) as each path works.
+    progress: [AtomicU32; 2],
 }
 
 impl Shared {
-    /// Nothing pressed, nothing shown yet.
+    /// Nothing pressed, nothing shown, no network yet.
     pub const fn new() -> Self {
         Self {
             buttons: Channel::new(),
             indicators: Signal::new(),
-            heartbeat: AtomicU32::new(0),
+            network: AtomicBool::new(false),
+            progress: [AtomicU32::new(0), AtomicU32::new(0)],
         }
     }
 
-    /// Shows progress on [`Shared::heartbeat`].
-    fn beat(&self) {
-        self.heartbeat.fetch_add(1, Ordering::Relaxed);
+    /// The board's network came up (link and address) or went down.
+    pub fn set_network(&self, up: bool) {
+        self.network.store(up, Ordering::Relaxed);
+    }
+
+    /// Whether the board has a network.
+    pub fn network_up(&self) -> bool {
+        self.network.load(Ordering::Relaxed)
+    }
+
+    /// Shows progress of `path`.
+    pub fn beat(&self, path: Path) {
+        self.counter(path).fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// The progress counter of `path`: a watchdog feeds only while every path's moves.
+    pub fn progress(&self, path: Path) -> u32 {
+        self.counter(path).load(Ordering::Relaxed)
+    }
+
+    /// The counter of `path`.
+    fn counter(&self, path: Path) -> &AtomicU32 {
+        match path {
+            Path::Buttons => &self.progress[0],
+            Path::Commands => &self.progress[1],
+        }
     }
 }
 
@@ -73,173 +118,351 @@ impl Default for Shared {
     }
 }
 
+/// The three connections to the robot, one per [`Connection`].
+pub struct Links<T: Transport> {
+    /// Commands: written without waiting for earlier answers.
+    pub commands: Link<T>,
+    /// Polls of the robot's state.
+    pub polls: Link<T>,
+    /// The navigation task's 1003.
+    pub navigation: Link<T>,
+}
+
 /// Runs the panel against the robot, forever.
-pub async fn run<T: Transport>(
-    config: &Config,
-    control: &mut Link<T>,
-    navigation: &mut Link<T>,
-    shared: &Shared,
-) -> ! {
-    let tasks = NavSignals {
-        start: Signal::new(),
-        end: Signal::new(),
+pub async fn run<T: Transport>(config: &Config, links: &mut Links<T>, shared: &Shared) -> ! {
+    let app = App {
+        panel: RefCell::new(Panel::new(config)),
+        shared,
         clock: Cell::new(RobotClock::new()),
+        wake_commands: Signal::new(),
+        wake_polls: Signal::new(),
+        wake_tasks: Signal::new(),
+        wake_leds: Signal::new(),
     };
-    let (never, _) = join(
-        control_loop(config, control, shared, &tasks),
-        navigation_loop(navigation, &tasks),
+    let Links {
+        commands,
+        polls,
+        navigation,
+    } = links;
+    // The button loop is polled first, so that an event and a due repeat that wake the task
+    // together are seen in that order: a repeat never slips out after an e-stop press.
+    let (never, ..) = join5(
+        app.button_loop(),
+        app.command_loop(commands),
+        app.poll_loop(polls),
+        app.navigation_loop(navigation),
+        app.led_loop(),
     )
     .await;
     never
 }
 
-/// How the two loops talk about navigation tasks.
-struct NavSignals {
-    /// A task for the navigation loop to run.
-    start: Signal<NoopRawMutex, NavTask>,
-    /// The end of that task: its answer, or why there is none.
-    end: Signal<NoopRawMutex, Result<NavResult, ClientError>>,
-    /// The robot's clock as the control link learns it, for the navigation link's `Time`.
+/// What the loops share.
+struct App<'a> {
+    /// The panel; borrowed only between awaits, never across one.
+    panel: RefCell<Panel>,
+    /// The board's side.
+    shared: &'a Shared,
+    /// The robot's clock as the poll connection learns it, for the others' `Time`.
     clock: Cell<RobotClock>,
+    /// Something for the command loop to send.
+    wake_commands: Signal<NoopRawMutex, ()>,
+    /// The poll schedule changed.
+    wake_polls: Signal<NoopRawMutex, ()>,
+    /// A navigation task may have been ordered.
+    wake_tasks: Signal<NoopRawMutex, ()>,
+    /// The LEDs may have changed.
+    wake_leds: Signal<NoopRawMutex, ()>,
 }
 
-/// The control link's side: buttons, commands, polls, LEDs.
-async fn control_loop<T: Transport>(
-    config: &Config,
-    link: &mut Link<T>,
-    shared: &Shared,
-    nav: &NavSignals,
-) -> ! {
-    let mut panel = Panel::new(config);
-    let mut shown = None;
-    // When the next connection attempt is due. Kept across wake-ups, so that button presses
-    // and idle ticks during an outage do not cut the link's backoff short.
-    let mut retry_at = Instant::now();
-    panel.link(LinkState::Connecting, Instant::now());
-    loop {
-        if !link.is_connected() && Instant::now() >= retry_at {
-            panel.link(LinkState::Connecting, Instant::now());
-            show(&panel, &mut shown, shared);
-            match link.connect().await {
-                Ok(()) => panel.link(LinkState::Connected, Instant::now()),
-                Err(retry_in) => retry_at = Instant::now() + retry_in,
+impl App<'_> {
+    /// Runs `f` on the panel.
+    fn panel<R>(&self, f: impl FnOnce(&mut Panel) -> R) -> R {
+        f(&mut self.panel.borrow_mut())
+    }
+
+    /// Reports a connection's state to the panel, and wakes the LEDs if it changed.
+    fn connection(&self, connection: Connection, state: ConnectionState) {
+        if self.panel(|p| p.connection(connection, state, Instant::now())) {
+            self.wake_leds.signal(());
+        }
+    }
+
+    /// Hands each button event to the panel as it arrives.
+    async fn button_loop(&self) -> ! {
+        loop {
+            let event = self.shared.buttons.receive().await;
+            debug!(
+                "button {} {}",
+                event.button.name(),
+                if event.pressed { "pressed" } else { "released" }
+            );
+            self.panel(|p| p.button(event));
+            self.wake_commands.signal(());
+            self.wake_tasks.signal(());
+            self.wake_polls.signal(());
+            self.wake_leds.signal(());
+        }
+    }
+
+    /// The command connection: connect, write what is due, match answers, watch for
+    /// silence.
+    async fn command_loop<T: Transport>(&self, link: &mut Link<T>) -> ! {
+        let mut retry_at = Instant::now();
+        loop {
+            self.shared.beat(Path::Commands);
+            if !self
+                .ensure_connected(link, Connection::Commands, &mut retry_at)
+                .await
+            {
+                continue;
+            }
+            let now = Instant::now();
+            while let Some((id, sent)) = link.expire(now, REQUEST_TIMEOUT) {
+                warn!(
+                    "no answer to Type {} Command {} (message {})",
+                    sent.message_type.raw(),
+                    sent.command,
+                    id
+                );
+                self.panel(|p| p.command_answered(Err(&ClientError::Timeout)));
+            }
+            let health = link.health(now);
+            if health == Health::Silent {
+                warn!("the robot stopped answering commands: reconnecting");
+                retry_at = Instant::now() + link.give_up().await;
+                self.connection(Connection::Commands, ConnectionState::Connecting);
+                continue;
+            }
+            self.connection(Connection::Commands, state_of(health));
+            if !self.send_due(link, health).await {
+                retry_at = Instant::now() + link.reconnect_delay();
+                self.connection(Connection::Commands, ConnectionState::Connecting);
+                continue;
+            }
+            let deadline = [
+                self.panel(|p| p.command_deadline()),
+                link.expiry(REQUEST_TIMEOUT),
+                link.health_deadline(),
+            ]
+            .into_iter()
+            .flatten()
+            .fold(now + IDLE, Instant::min);
+            match select3(
+                link.receive(),
+                self.wake_commands.wait(),
+                Timer::at(deadline),
+            )
+            .await
+            {
+                Either3::First(Ok(answer)) => {
+                    self.panel(|p| p.command_answered(answer.result.as_ref()));
+                    self.wake_leds.signal(());
+                }
+                Either3::First(Err(e)) => {
+                    warn!("command connection lost: {:?}", e);
+                    retry_at = Instant::now() + link.reconnect_delay();
+                    self.connection(Connection::Commands, ConnectionState::Connecting);
+                }
+                Either3::Second(()) | Either3::Third(()) => {}
             }
         }
-        if link.is_connected() {
-            perform_due(&mut panel, link, shared, nav).await;
-        }
-        show(&panel, &mut shown, shared);
-        let now = Instant::now();
-        let retry = (!link.is_connected()).then_some(retry_at);
-        let deadline = retry
-            .into_iter()
-            .chain(panel.next_deadline(now))
-            .min()
-            .unwrap_or(now + IDLE)
-            .min(now + IDLE);
-        match select3(
-            shared.buttons.receive(),
-            nav.end.wait(),
-            Timer::at(deadline),
-        )
-        .await
-        {
-            Either3::First(event) => panel.button(event.button, event.pressed, Instant::now()),
-            Either3::Second(end) => navigation_ended(&mut panel, end),
-            Either3::Third(()) => {}
-        }
-        shared.beat();
     }
-}
 
-/// Sends everything the panel has due, taking new button events between requests so that
-/// an e-stop overtakes queued polls.
-async fn perform_due<T: Transport>(
-    panel: &mut Panel,
-    link: &mut Link<T>,
-    shared: &Shared,
-    nav: &NavSignals,
-) {
-    loop {
-        shared.beat();
-        while let Ok(event) = shared.buttons.try_receive() {
-            panel.button(event.button, event.pressed, Instant::now());
-        }
-        if let Some(end) = nav.end.try_take() {
-            navigation_ended(panel, end);
-        }
-        let Some(action) = panel.next_action(Instant::now()) else {
-            return;
-        };
-        if action.is_command() {
-            let request = action.request();
+    /// Writes every command due now; false if the connection was lost doing so.
+    async fn send_due<T: Transport>(&self, link: &mut Link<T>, health: Health) -> bool {
+        let motion_allowed = health == Health::Answering;
+        while let Some(request) = self.panel(|p| p.next_command(Instant::now(), motion_allowed)) {
             info!(
                 "command: Type {} Command {}",
                 request.message_type().raw(),
                 request.command()
             );
-        }
-        let ok = match &action {
-            Action::Navigate(task) => {
-                nav.start.signal(task.clone());
-                panel.navigation(true, Instant::now());
-                true
+            self.wake_leds.signal(());
+            if let Err(e) = link.send(&request).await {
+                self.panel(|p| p.command_answered(Err(&e)));
+                return false;
             }
-            Action::Send(_) | Action::CancelNavigation => {
-                match link.request(&action.request(), Some(REQUEST_TIMEOUT)).await {
-                    Ok(response) => {
-                        nav.clock.set(link.clock());
-                        panel.response(&response, Instant::now());
-                        succeeded(&response)
-                    }
-                    Err(e) => {
-                        warn!("request failed: {:?}", e);
-                        false
+        }
+        true
+    }
+
+    /// Opens `link` if it is closed and its retry is due; whether it is open. While it
+    /// stays closed this waits (for the retry, at most [`IDLE`]) before returning.
+    async fn ensure_connected<T: Transport>(
+        &self,
+        link: &mut Link<T>,
+        connection: Connection,
+        retry_at: &mut Instant,
+    ) -> bool {
+        if link.is_connected() {
+            return true;
+        }
+        if Instant::now() >= *retry_at {
+            self.connection(connection, ConnectionState::Connecting);
+            link.set_clock(self.clock.get());
+            match link.connect().await {
+                Ok(()) => {
+                    self.connection(connection, ConnectionState::Open);
+                    return true;
+                }
+                Err(retry_in) => *retry_at = Instant::now() + retry_in,
+            }
+        }
+        Timer::at((*retry_at).min(Instant::now() + IDLE)).await;
+        false
+    }
+
+    /// The poll connection: one poll at a time, when due.
+    async fn poll_loop<T: Transport>(&self, link: &mut Link<T>) -> ! {
+        let mut retry_at = Instant::now();
+        loop {
+            if !self
+                .ensure_connected(link, Connection::Polls, &mut retry_at)
+                .await
+            {
+                continue;
+            }
+            let now = Instant::now();
+            let Some(poll) = self.panel(|p| p.next_poll(now)) else {
+                let due = self.panel(|p| p.poll_deadline()).unwrap_or(now + IDLE);
+                select(self.wake_polls.wait(), Timer::at(due.min(now + IDLE))).await;
+                continue;
+            };
+            match link.request(&poll, Some(REQUEST_TIMEOUT)).await {
+                Ok(response) => self.polled(link, &response),
+                Err(e) if e.connection_usable() => {
+                    warn!("poll failed: {:?}", e);
+                    if link.health(Instant::now()) == Health::Silent {
+                        warn!("the robot stopped answering polls: reconnecting");
+                        retry_at = Instant::now() + link.give_up().await;
+                        self.connection(Connection::Polls, ConnectionState::Connecting);
                     }
                 }
+                Err(e) => {
+                    warn!("poll connection lost: {:?}", e);
+                    retry_at = Instant::now() + link.reconnect_delay();
+                    self.connection(Connection::Polls, ConnectionState::Connecting);
+                }
             }
-        };
-        panel.sent(&action, ok, Instant::now());
-        if !link.is_connected() {
-            // Nothing is queued through an outage: the panel drops presses until it is
-            // told the link is back.
-            panel.link(LinkState::Connecting, Instant::now());
-            return;
+        }
+    }
+
+    /// A poll's answer: into the panel, and the clock learned from it for the others.
+    fn polled<T: Transport>(&self, link: &Link<T>, response: &Response) {
+        self.clock.set(link.clock());
+        self.panel(|p| p.poll_answered(response, Instant::now()));
+        // A confirmed e-stop stops the repeats; the LEDs follow the status.
+        self.wake_commands.signal(());
+        self.wake_leds.signal(());
+    }
+
+    /// The navigation connection: one task at a time, its connection held until the answer.
+    async fn navigation_loop<T: Transport>(&self, link: &mut Link<T>) -> ! {
+        loop {
+            let Some(order) = self.panel(|p| p.take_task(Instant::now())) else {
+                self.wake_tasks.wait().await;
+                // A stale order was dropped and shown.
+                self.wake_leds.signal(());
+                continue;
+            };
+            link.set_clock(self.clock.get());
+            // A fresh connection per task: one left idle may have died unnoticed.
+            if link.connect().await.is_err() {
+                self.task_ended(order.id, Err(&ClientError::NotConnected));
+                continue;
+            }
+            // The connection may have taken a while: the task may be cancelled or stale.
+            if !self.panel(|p| p.task_wanted(order.id, Instant::now())) {
+                info!("navigation task withdrawn before its 1003 went out");
+                link.disconnect().await;
+                self.wake_leds.signal(());
+                continue;
+            }
+            let end = match link.send(&Request::NavTask(order.task)).await {
+                Ok(message_id) => {
+                    self.panel(|p| p.task_started(order.id, Instant::now()));
+                    self.wake_polls.signal(());
+                    self.wake_leds.signal(());
+                    self.task_answer(link, order.id, message_id).await
+                }
+                Err(e) => Err(e),
+            };
+            match end {
+                Ok(Response::NavResult(result)) => self.task_ended(order.id, Ok(&result)),
+                Ok(other) => self.task_ended(
+                    order.id,
+                    Err(&ClientError::UnexpectedAnswer {
+                        expected: MessageType::NavTask,
+                        got: other.message_type(),
+                    }),
+                ),
+                Err(e) => self.task_ended(order.id, Err(&e)),
+            }
+            // The task is over (or lost track of, which closing stops too: 41802).
+            link.disconnect().await;
+        }
+    }
+
+    /// Waits for the answer to task `id`'s 1003 (message `message_id`). Once the panel has
+    /// cancelled the task, the robot answers it at once; one that does not within
+    /// [`CANCEL_GRACE`] loses the connection, which stops the task too (ErrorStatus 41802),
+    /// so a robot that never answers cannot keep the next task from starting.
+    async fn task_answer<T: Transport>(
+        &self,
+        link: &mut Link<T>,
+        id: u32,
+        message_id: u16,
+    ) -> Result<Response, ClientError> {
+        loop {
+            if !self.panel(|p| p.control().task_running(id)) {
+                return match with_timeout(CANCEL_GRACE, link.answer(message_id)).await {
+                    Ok(end) => end,
+                    Err(_) => {
+                        warn!("no answer to the cancelled task: closing its connection");
+                        link.disconnect().await;
+                        Err(ClientError::Timeout)
+                    }
+                };
+            }
+            if let Either::First(end) =
+                select(link.answer(message_id), self.wake_tasks.wait()).await
+            {
+                return end;
+            }
+        }
+    }
+
+    /// Reports the end of task `id`.
+    fn task_ended(&self, id: u32, end: Result<&NavResult, &ClientError>) {
+        self.panel(|p| p.task_ended(id, end, Instant::now()));
+        self.wake_polls.signal(());
+        self.wake_leds.signal(());
+    }
+
+    /// Publishes the LED states whenever they change, on their own schedule.
+    async fn led_loop(&self) -> ! {
+        let mut shown = None;
+        loop {
+            let now = Instant::now();
+            let (indicators, next) = self.panel(|p| {
+                p.network(self.shared.network_up());
+                (p.indicators(now), p.indicators_deadline(now))
+            });
+            if shown != Some(indicators) {
+                shown = Some(indicators);
+                self.shared.indicators.signal(indicators);
+            }
+            let deadline = next.map_or(now + LED_REFRESH, |at| at.min(now + LED_REFRESH));
+            select(self.wake_leds.wait(), Timer::at(deadline)).await;
         }
     }
 }
 
-/// The navigation task ended, with its answer or without one.
-fn navigation_ended(panel: &mut Panel, end: Result<NavResult, ClientError>) {
-    let now = Instant::now();
-    match end {
-        Ok(result) => panel.response(&Response::NavResult(result), now),
-        Err(e) => {
-            warn!("navigation task lost: {:?}", e);
-            panel.navigation(false, now);
-        }
-    }
-}
-
-/// Publishes the LED states when they changed.
-fn show(panel: &Panel, shown: &mut Option<Indicators>, shared: &Shared) {
-    let indicators = panel.indicators(Instant::now());
-    if *shown != Some(indicators) {
-        *shown = Some(indicators);
-        shared.indicators.signal(indicators);
-    }
-}
-
-/// The navigation link's side: one task at a time, its connection held until the answer.
-async fn navigation_loop<T: Transport>(link: &mut Link<T>, nav: &NavSignals) -> ! {
-    loop {
-        let task = nav.start.wait().await;
-        link.set_clock(nav.clock.get());
-        if !link.is_connected() && link.connect().await.is_err() {
-            nav.end.signal(Err(ClientError::NotConnected));
-            continue;
-        }
-        let end = link.navigate(&task, None).await;
-        nav.end.signal(end);
+/// The connection state for the robot's health on it.
+fn state_of(health: Health) -> ConnectionState {
+    match health {
+        Health::Answering => ConnectionState::Open,
+        Health::Overdue | Health::Silent => ConnectionState::NotAnswering,
     }
 }

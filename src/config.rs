@@ -25,13 +25,14 @@
 //! | `X30_SPEED_STRAFE_LEFT` | `-1` | `strafe-left`, m/s, 0..=0.15 (robot default 0.1) |
 //! | `X30_SPEED_STRAFE_RIGHT` | `-1` | `strafe-right`, m/s, 0..=0.15 (robot default 0.1) |
 //! | `X30_LIGHTS` | `000000:0,00FF00:100,FFBF00:100,FF0000:100:breathing` | presets the `light` button cycles through, comma-separated, at most [`MAX_LIGHT_PRESETS`]: `RRGGBB:brightness%`, optionally `:breathing` or `:steady` (the default) |
-//! | `X30_DOCK` | `1,1,0,0,0,0` | the charging point `dock` navigates to: `point,map,x,y,z,yaw` (point number, map number, metres, radians) |
+//! | `X30_DOCK` | none | the charging point `dock` navigates to: `point,map,x,y,z,yaw` (point number, map number, metres, radians); without it `dock` only blinks the fault LED, since no default point is safe to walk to |
 //! | `X30_POLL_STATUS_MS` | `500` | period of the status (1002) and perception (2002) polls, 100..=60000 ms |
 //! | `X30_POLL_BATTERY_MS` | `5000` | period of the battery (2001) poll, 100..=600000 ms |
 //! | `X30_POLL_MOTORS_MS` | `10000` | period of the motor-temperature (1008) poll, 100..=600000 ms |
 //! | `X30_POLL_NAV_MS` | `1000` | period of the navigation-status (1007) poll while a task runs, 100..=60000 ms |
 //! | `X30_REPEAT_MS` | `250` | repeat period of a held motion button, 200..=333 ms (the robot needs 3–5 Hz) |
 //! | `X30_DEBOUNCE_MS` | `15` | how long a button's level must be stable to count, 1..=100 ms |
+//! | `X30_ESTOP_WIRING` | `no` | how the `estop` switch is wired: `no` normally open (closes to GND when pressed), `nc` normally closed (opens when pressed, so a broken wire reads as pressed) |
 //!
 //! The parsing functions are public so that host tests (and host programs that take these
 //! settings at run time) use exactly the code the firmware uses.
@@ -140,6 +141,38 @@ pub struct PollPeriods {
     pub nav_status: Duration,
 }
 
+/// How the `estop` switch is wired to its input, which has a pull-up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum EstopWiring {
+    /// Normally open: pressing connects the input to GND. A broken wire reads as released.
+    NormallyOpen,
+    /// Normally closed: the switch holds the input at GND and pressing opens it. A broken
+    /// wire reads as pressed, which is why safety wiring uses it.
+    NormallyClosed,
+}
+
+impl EstopWiring {
+    /// Parses `no` (normally open) or `nc` (normally closed), any case.
+    pub fn parse(text: &str) -> Option<Self> {
+        if text.eq_ignore_ascii_case("no") {
+            Some(Self::NormallyOpen)
+        } else if text.eq_ignore_ascii_case("nc") {
+            Some(Self::NormallyClosed)
+        } else {
+            None
+        }
+    }
+
+    /// Whether the switch is pressed when its input reads `low` (at GND).
+    pub const fn pressed(self, low: bool) -> bool {
+        match self {
+            Self::NormallyOpen => low,
+            Self::NormallyClosed => !low,
+        }
+    }
+}
+
 /// Every setting of the panel.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -152,14 +185,16 @@ pub struct Config {
     pub speeds: MotionSpeeds,
     /// Presets of the `light` button; never empty.
     pub lights: LightPresets,
-    /// The charging point of the `dock` button (PointInfo 3).
-    pub dock: NavPoint,
+    /// The charging point of the `dock` button (PointInfo 3); `None`: not configured.
+    pub dock: Option<NavPoint>,
     /// Poll periods of the monitor.
     pub polls: PollPeriods,
     /// Repeat period of a held motion button.
     pub motion_repeat: Duration,
     /// How long a button's level must be stable to count.
     pub debounce: Duration,
+    /// How the `estop` switch is wired.
+    pub estop_wiring: EstopWiring,
     /// Variables whose text was not valid.
     problems: Problems,
 }
@@ -178,7 +213,7 @@ impl Default for Config {
                 strafe_right: Speed::Default,
             },
             lights: LightPresets::from_array(DEFAULT_LIGHTS),
-            dock: NavPoint::new(1, 1, 0.0, 0.0, 0.0, 0.0, PointInfo::Charging),
+            dock: None,
             polls: PollPeriods {
                 status: Duration::from_millis(500),
                 battery: Duration::from_secs(5),
@@ -187,6 +222,7 @@ impl Default for Config {
             },
             motion_repeat: Duration::from_millis(250),
             debounce: Duration::from_millis(15),
+            estop_wiring: EstopWiring::NormallyOpen,
             problems: Problems(0),
         }
     }
@@ -258,11 +294,14 @@ impl Config {
             network,
             speeds,
             lights: r.get(Variable::Lights, parse_lights).unwrap_or(d.lights),
-            dock: r.get(Variable::Dock, parse_dock).unwrap_or(d.dock),
+            dock: r.get(Variable::Dock, parse_dock).or(d.dock),
             polls,
             // 200..=333 ms is 3–5 Hz, the rate SPEC §4.5 requires.
             motion_repeat: r.millis(Variable::Repeat, 200, 333, d.motion_repeat),
             debounce: r.millis(Variable::Debounce, 1, 100, d.debounce),
+            estop_wiring: r
+                .get(Variable::EstopWiring, EstopWiring::parse)
+                .unwrap_or(d.estop_wiring),
             problems: r.problems,
         }
     }
@@ -404,6 +443,8 @@ variables! {
     Repeat = "X30_REPEAT_MS",
     /// `X30_DEBOUNCE_MS`: button debounce time.
     Debounce = "X30_DEBOUNCE_MS",
+    /// `X30_ESTOP_WIRING`: normally-open or normally-closed e-stop switch.
+    EstopWiring = "X30_ESTOP_WIRING",
 }
 
 /// An unsigned decimal of plain digits (no sign, unlike the protocol's integers).

@@ -104,13 +104,14 @@ async fn time_driver() -> Result<(), &'static str> {
 /// The virtual panel's lines become button events; bad lines are errors.
 fn virtual_panel() -> Result<(), &'static str> {
     let mut reader = LineReader::new();
+    let at = Instant::from_millis(7);
     let mut events = [None, None];
     for (slot, line) in events
         .iter_mut()
         .zip([&b"+turn-left\r"[..], b"-turn-left\n"])
     {
         for &byte in line {
-            if let Some(result) = reader.push(byte) {
+            if let Some(result) = reader.push(byte, at) {
                 *slot = result.map_err(|_| "valid line rejected")?;
             }
         }
@@ -119,12 +120,13 @@ fn virtual_panel() -> Result<(), &'static str> {
         Some(ButtonEvent {
             button: Button::TurnLeft,
             pressed,
+            at,
         })
     };
     if events != [expected(true), expected(false)] {
         return Err("wrong events");
     }
-    let bad = b"+jump\n".iter().find_map(|&byte| reader.push(byte));
+    let bad = b"+jump\n".iter().find_map(|&byte| reader.push(byte, at));
     if !matches!(bad, Some(Err(_))) {
         return Err("unknown button accepted");
     }

@@ -4,14 +4,14 @@
 mod common;
 
 use common::TokioTransport;
-use embassy_time::Duration;
-use std::sync::atomic::Ordering;
+use embassy_time::{Duration, Instant};
 use std::time::Duration as StdDuration;
-use x30_panel::app::{self, Shared};
+use x30_panel::app::{self, Links, Path, Shared};
 use x30_panel::client::{Backoff, Link};
 use x30_panel::config::Config;
 use x30_panel::panel::{Button, ButtonEvent, Indicators, Led};
-use x30_panel::proto::codes::MotionState;
+use x30_panel::proto::codes::{GaitState, MotionGait, MotionState, PointInfo};
+use x30_panel::proto::message::{MotionCommand, NavPoint, Request};
 use x30_sim::{Config as SimConfig, Faults, LogEntry, Simulator};
 
 fn simulator(time_scale: f64) -> Simulator {
@@ -23,21 +23,73 @@ fn simulator(time_scale: f64) -> Simulator {
     .expect("the simulator starts")
 }
 
+/// Reconnection delays of the tests: short, so that outages heal quickly.
+fn backoff() -> Backoff {
+    Backoff::new(Duration::from_millis(50), Duration::from_millis(400))
+}
+
+/// The three connections to `addr`.
+fn links(addr: std::net::SocketAddr) -> Links<TokioTransport> {
+    Links {
+        commands: Link::new(TokioTransport::new(addr), backoff()),
+        polls: Link::new(TokioTransport::new(addr), backoff()),
+        navigation: Link::new(TokioTransport::new(addr), backoff()),
+    }
+}
+
+/// The test configuration: the defaults, with a charging point 1 m from the map origin.
+fn config() -> Config {
+    let mut config = Config::default();
+    config.dock = Some(NavPoint::new(1, 1, 1.0, 0.0, 0.0, 0.0, PointInfo::Charging));
+    config
+}
+
+/// Puts the simulated robot 19 m from the test's charging point: a task to it runs for
+/// half a minute.
+fn far_from_dock(sim: &Simulator) {
+    sim.robot(|r| {
+        r.set_pose(x30_sim::Pose {
+            x: 20.0,
+            ..Default::default()
+        })
+    });
+}
+
 /// Runs the application against `sim` while `script` runs; returns what the script returns.
 async fn with_app<R>(sim: &Simulator, script: impl AsyncFnOnce(&Shared) -> R) -> R {
-    let config = Config::default();
+    with_app_config(sim, &config(), script).await
+}
+
+/// [`with_app`] with another configuration.
+async fn with_app_config<R>(
+    sim: &Simulator,
+    config: &Config,
+    script: impl AsyncFnOnce(&Shared) -> R,
+) -> R {
     let shared = Shared::new();
-    let backoff = Backoff::new(Duration::from_millis(50), Duration::from_millis(400));
-    let mut control = Link::new(TokioTransport::new(sim.addr()), backoff);
-    let mut navigation = Link::new(TokioTransport::new(sim.addr()), backoff);
+    shared.set_network(true);
+    let mut links = links(sim.addr());
     tokio::select! {
-        _ = app::run(&config, &mut control, &mut navigation, &shared) => unreachable!(),
+        _ = app::run(config, &mut links, &shared) => unreachable!(),
         result = script(&shared) => result,
     }
 }
 
 async fn press(shared: &Shared, button: Button, pressed: bool) {
-    shared.buttons.send(ButtonEvent { button, pressed }).await;
+    shared
+        .buttons
+        .send(ButtonEvent {
+            button,
+            pressed,
+            at: Instant::now(),
+        })
+        .await;
+}
+
+/// Presses and releases `button`.
+async fn click(shared: &Shared, button: Button) {
+    press(shared, button, true).await;
+    press(shared, button, false).await;
 }
 
 async fn sleep(ms: u64) {
@@ -57,6 +109,43 @@ async fn wait_for_log(
         sleep(20).await;
     }
     false
+}
+
+/// Waits for the first Type 2 request with `command` logged at or after `since`
+/// (simulator seconds); its time.
+async fn wait_for_command(sim: &Simulator, limit_ms: u64, since: f64, command: i32) -> Option<f64> {
+    let found = |l: &[LogEntry]| {
+        motion(l)
+            .into_iter()
+            .find(|(t, c)| *t >= since && *c == command)
+            .map(|(t, _)| t)
+    };
+    wait_for_log(sim, limit_ms, |l| found(l).is_some()).await;
+    found(&sim.requests())
+}
+
+/// Waits for the first request of `message_type` logged at or after `since`; its time.
+async fn wait_for_type(
+    sim: &Simulator,
+    limit_ms: u64,
+    since: f64,
+    message_type: i32,
+) -> Option<f64> {
+    let found = |l: &[LogEntry]| {
+        l.iter()
+            .find(|e| e.t >= since && e.message_type == Some(message_type))
+            .map(|e| e.t)
+    };
+    wait_for_log(sim, limit_ms, |l| found(l).is_some()).await;
+    found(&sim.requests())
+}
+
+/// Waits until the panel polls the robot.
+async fn wait_connected(sim: &Simulator) {
+    assert!(
+        wait_for_log(sim, 3000, |l| polls(l, 1002) > 0).await,
+        "the panel polls the robot"
+    );
 }
 
 fn motion(entries: &[LogEntry]) -> Vec<(f64, i32)> {
@@ -107,19 +196,16 @@ impl Leds {
     }
 }
 
-/// The heartbeat's count after `ms` milliseconds minus the count before.
+/// The command path's progress after `ms` milliseconds minus the count before.
 async fn beats_during(shared: &Shared, ms: u64) -> u32 {
-    let before = shared.heartbeat.load(Ordering::Relaxed);
+    let before = shared.progress(Path::Commands);
     sleep(ms).await;
-    shared
-        .heartbeat
-        .load(Ordering::Relaxed)
-        .wrapping_sub(before)
+    shared.progress(Path::Commands).wrapping_sub(before)
 }
 
 #[tokio::test(flavor = "current_thread")]
-async fn heartbeat_moves_while_connected_and_while_the_robot_is_away() {
-    // Connected and idle: the control loop turns at least every 500 ms (polls come sooner).
+async fn command_path_progress_moves_while_connected_and_while_the_robot_is_away() {
+    // Connected and idle: the command loop turns at least every 500 ms.
     let sim = simulator(1.0);
     let connected = with_app(&sim, async |shared| {
         assert!(
@@ -137,11 +223,9 @@ async fn heartbeat_moves_while_connected_and_while_the_robot_is_away() {
         .expect("a free port");
     let config = Config::default();
     let shared = Shared::new();
-    let backoff = Backoff::new(Duration::from_millis(50), Duration::from_millis(400));
-    let mut control = Link::new(TokioTransport::new(closed), backoff);
-    let mut navigation = Link::new(TokioTransport::new(closed), backoff);
+    let mut links = links(closed);
     let away = tokio::select! {
-        _ = app::run(&config, &mut control, &mut navigation, &shared) => unreachable!(),
+        _ = app::run(&config, &mut links, &shared) => unreachable!(),
         beats = beats_during(&shared, 1500) => beats,
     };
     assert!(away >= 3, "{away} beats in 1.5 s without a robot");
@@ -287,17 +371,13 @@ async fn presses_during_an_outage_are_dropped_not_replayed() {
     let sim = simulator(1.0);
     with_app(&sim, async |shared| {
         assert!(wait_for_log(&sim, 3000, |l| polls(l, 1002) > 0).await);
-        sim.set_faults(Faults {
-            drop_after: Some(0),
-            ..Default::default()
-        });
-        sim.drop_connections();
+        sim.refuse_connections(StdDuration::from_millis(1000));
         sleep(300).await;
-        // While every connection is refused service, press lie-down.
-        press(shared, Button::LieDown, true).await;
-        press(shared, Button::LieDown, false).await;
-        sleep(500).await;
-        sim.set_faults(Faults::default());
+        // While the robot refuses every connection, press lie-down and light: one-shots that
+        // cannot go out within 300 ms of the press.
+        click(shared, Button::LieDown).await;
+        click(shared, Button::Light).await;
+        sleep(700).await;
         let healed_at = sim.elapsed().as_secs_f64();
         assert!(
             wait_for_log(&sim, 5000, |l| l
@@ -312,19 +392,17 @@ async fn presses_during_an_outage_are_dropped_not_replayed() {
         motion(&sim.requests()).iter().all(|(_, c)| *c != 15),
         "the lie-down pressed during the outage was never sent"
     );
+    assert_eq!(
+        polls(&sim.requests(), 1101),
+        0,
+        "nor the light pressed during the outage"
+    );
 }
 
 #[tokio::test(flavor = "current_thread")]
 async fn navigation_task_docks_and_is_cancelled_from_the_panel() {
     let sim = simulator(1.0);
-    sim.robot(|r| {
-        r.set_pose(x30_sim::Pose {
-            x: 20.0,
-            y: 0.0,
-            z: 0.0,
-            yaw: 0.0,
-        })
-    });
+    far_from_dock(&sim);
     with_app(&sim, async |shared| {
         let mut leds = Leds(None);
         assert!(wait_for_log(&sim, 3000, |l| polls(l, 1002) > 0).await);
@@ -385,14 +463,7 @@ async fn navigation_task_docks_and_is_cancelled_from_the_panel() {
 #[tokio::test(flavor = "current_thread")]
 async fn motion_press_during_navigation_cancels_the_task_first() {
     let sim = simulator(1.0);
-    sim.robot(|r| {
-        r.set_pose(x30_sim::Pose {
-            x: 20.0,
-            y: 0.0,
-            z: 0.0,
-            yaw: 0.0,
-        })
-    });
+    far_from_dock(&sim);
     with_app(&sim, async |shared| {
         assert!(wait_for_log(&sim, 3000, |l| polls(l, 1002) > 0).await);
         press(shared, Button::Dock, true).await;
@@ -635,20 +706,14 @@ async fn reconnection_waits_out_the_backoff_even_while_buttons_are_pressed() {
     let shared = Shared::new();
     // Attempts at 0, 100, 300 and 700 ms, then every 800 ms: 5 in 1.2 s.
     let backoff = Backoff::new(Duration::from_millis(100), Duration::from_millis(800));
-    let mut control = Link::new(
-        Refused {
-            attempts: attempts.clone(),
-        },
-        backoff,
-    );
-    let mut navigation = Link::new(
-        Refused {
-            attempts: std::rc::Rc::new(std::cell::Cell::new(0)),
-        },
-        backoff,
-    );
+    let refused = |attempts| Link::new(Refused { attempts }, backoff);
+    let mut links = Links {
+        commands: refused(attempts.clone()),
+        polls: refused(std::rc::Rc::new(std::cell::Cell::new(0))),
+        navigation: refused(std::rc::Rc::new(std::cell::Cell::new(0))),
+    };
     tokio::select! {
-        _ = app::run(&config, &mut control, &mut navigation, &shared) => unreachable!(),
+        _ = app::run(&config, &mut links, &shared) => unreachable!(),
         _ = async {
             // A press every 20 ms wakes the control loop 60 times.
             for i in 0..60 {
@@ -662,4 +727,291 @@ async fn reconnection_waits_out_the_backoff_even_while_buttons_are_pressed() {
         (3..=6).contains(&made),
         "{made} connection attempts in 1.2 s with a 100..800 ms backoff"
     );
+}
+
+/// Latencies, in seconds, from each press to the first matching request in the simulator's
+/// log: forward press → Command 1, forward release → Command 6, e-stop press → Command 13.
+async fn stop_path_latencies(sim: &Simulator, shared: &Shared) -> [f64; 3] {
+    let pressed = sim.elapsed().as_secs_f64();
+    press(shared, Button::Forward, true).await;
+    let forward = wait_for_command(sim, 2000, pressed, 1)
+        .await
+        .expect("forward sent");
+    sleep(600).await;
+    let released = sim.elapsed().as_secs_f64();
+    press(shared, Button::Forward, false).await;
+    let zero = wait_for_command(sim, 2000, released, 6)
+        .await
+        .expect("zero velocity sent");
+    sleep(300).await;
+    let estop_pressed = sim.elapsed().as_secs_f64();
+    press(shared, Button::Estop, true).await;
+    let estop = wait_for_command(sim, 2000, estop_pressed, 13)
+        .await
+        .expect("e-stop sent");
+    press(shared, Button::Estop, false).await;
+    [forward - pressed, zero - released, estop - estop_pressed]
+}
+
+/// Stops must reach the robot within this of the press (the bound; generous for a
+/// shared machine, while a stop behind a slow answer would take the 1.2 s the answer takes).
+const STOP_BOUND: f64 = 0.3;
+
+#[tokio::test(flavor = "current_thread")]
+async fn commands_do_not_wait_behind_slow_status_answers() {
+    let sim = simulator(1.0);
+    with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        sim.set_faults(Faults {
+            type_delays: vec![(1002, StdDuration::from_millis(1200))],
+            ..Default::default()
+        });
+        sleep(500).await;
+        let latencies = stop_path_latencies(&sim, shared).await;
+        for (what, latency) in ["forward", "zero velocity", "e-stop"].iter().zip(latencies) {
+            assert!(
+                latency < STOP_BOUND,
+                "{what} reached the robot {latency:.3} s after the button"
+            );
+        }
+    })
+    .await;
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn stops_reach_a_half_open_robot_at_once_and_the_silence_is_detected() {
+    let sim = simulator(1.0);
+    with_app(&sim, async |shared| {
+        let mut leds = Leds(None);
+        wait_connected(&sim).await;
+        assert_eq!(
+            leds.until(shared, 3000, |i| i.link == Led::On).await.link,
+            Led::On
+        );
+        // The robot reads but never answers from now on.
+        sim.set_faults(Faults {
+            mute: true,
+            ..Default::default()
+        });
+        let muted_at = sim.elapsed().as_secs_f64();
+        let latencies = stop_path_latencies(&sim, shared).await;
+        for (what, latency) in ["forward", "zero velocity", "e-stop"].iter().zip(latencies) {
+            assert!(
+                latency < STOP_BOUND,
+                "{what} reached the muted robot {latency:.3} s after the button"
+            );
+        }
+        let silent = leds
+            .until(shared, 5000, |i| {
+                i.link == Led::BlinkFast || i.link == Led::Blink
+            })
+            .await;
+        assert_ne!(
+            silent.link,
+            Led::On,
+            "the link LED shows the robot not answering"
+        );
+        // Silence closes the connections and opens new ones.
+        let newest =
+            |l: &[LogEntry], before: f64| l.iter().filter(|e| e.t < before).map(|e| e.conn).max();
+        let old = newest(&sim.requests(), muted_at).expect("connections before the silence");
+        assert!(
+            wait_for_log(&sim, 6000, |l| l.iter().any(|e| e.conn > old)).await,
+            "the panel reconnects to a silent robot"
+        );
+    })
+    .await;
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn motion_is_not_written_while_answers_are_overdue() {
+    let sim = simulator(1.0);
+    let muted_at = with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        sim.set_faults(Faults {
+            mute: true,
+            ..Default::default()
+        });
+        let muted_at = sim.elapsed().as_secs_f64();
+        press(shared, Button::Forward, true).await;
+        sleep(1500).await;
+        press(shared, Button::Forward, false).await;
+        sleep(200).await;
+        muted_at
+    })
+    .await;
+    let forward = motion(&sim.requests())
+        .into_iter()
+        .filter(|(t, c)| *t >= muted_at && *c == 1)
+        .count();
+    // At 4 Hz, 1.5 s would be 6 or 7 commands; once the first answer is 0.5 s overdue no more
+    // go out, so a robot that wakes up finds no backlog.
+    assert!(
+        (1..=3).contains(&forward),
+        "{forward} forward commands reached a robot that did not answer"
+    );
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn estop_pressed_while_the_robot_refuses_connections_goes_out_first_when_it_is_back() {
+    let sim = simulator(1.0);
+    with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        sim.refuse_connections(StdDuration::from_millis(1500));
+        sleep(200).await;
+        press(shared, Button::Estop, true).await;
+        sleep(1300).await;
+        let back = sim.elapsed().as_secs_f64();
+        let estop = wait_for_command(&sim, 5000, back, 13).await;
+        assert!(
+            estop.is_some(),
+            "Command 13 reaches the robot once it is back"
+        );
+        let log = sim.requests();
+        let conn = log
+            .iter()
+            .find(|e| e.t >= back && e.message_type == Some(2))
+            .map(|e| e.conn)
+            .expect("a command connection after the outage");
+        let first = log
+            .iter()
+            .find(|e| e.conn == conn)
+            .expect("its first request");
+        assert_eq!(
+            (first.message_type, first.command),
+            (Some(2), Some(13)),
+            "the e-stop is the first request on the new command connection"
+        );
+        assert!(
+            wait_for_log(&sim, 3000, |_| sim.snapshot().motion_state
+                == MotionState::SoftEmergencyStop)
+            .await
+        );
+        press(shared, Button::Estop, false).await;
+    })
+    .await;
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_refused_estop_is_repeated_until_the_robot_confirms_it() {
+    let sim = simulator(1.0);
+    with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        sim.set_faults(Faults {
+            refuse_estops: 3,
+            ..Default::default()
+        });
+        let pressed = sim.elapsed().as_secs_f64();
+        click(shared, Button::Estop).await;
+        assert!(
+            wait_for_log(&sim, 5000, |_| sim.snapshot().motion_state
+                == MotionState::SoftEmergencyStop)
+            .await,
+            "the robot ends in soft e-stop"
+        );
+        sleep(1000).await;
+        let estops: Vec<f64> = motion(&sim.requests())
+            .into_iter()
+            .filter(|(t, c)| *t >= pressed && *c == 13)
+            .map(|(t, _)| t)
+            .collect();
+        assert!(estops.len() >= 4, "3 refused, then one taken: {estops:?}");
+        let gaps: Vec<f64> = estops.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(
+            gaps.iter().take(3).all(|g| *g < 0.5),
+            "repeated at least every 250 ms (with slack): {gaps:?}"
+        );
+        let last = *estops.last().unwrap();
+        let after = sim.elapsed().as_secs_f64();
+        assert!(
+            after - last > 0.6,
+            "no more e-stops once the robot confirmed: last at {last:.2}, now {after:.2}"
+        );
+    })
+    .await;
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn stop_during_a_navigation_task_sends_1004_and_zero_velocity() {
+    let sim = simulator(1.0);
+    far_from_dock(&sim);
+    with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        click(shared, Button::Dock).await;
+        assert!(
+            wait_for_log(&sim, 2000, |l| polls(l, 1003) == 1).await,
+            "dock sends a 1003"
+        );
+        sleep(300).await;
+        let pressed = sim.elapsed().as_secs_f64();
+        click(shared, Button::Stop).await;
+        let cancel = wait_for_type(&sim, 2000, pressed, 1004).await;
+        let zero = wait_for_command(&sim, 2000, pressed, 6).await;
+        assert!(
+            cancel.is_some_and(|t| t - pressed < STOP_BOUND),
+            "1004 at once: {cancel:?}"
+        );
+        assert!(
+            zero.is_some_and(|t| t - pressed < STOP_BOUND),
+            "zero velocity at once: {zero:?}"
+        );
+        assert!(
+            wait_for_log(&sim, 3000, |_| sim.snapshot().last_task.is_some()).await,
+            "the task ends"
+        );
+    })
+    .await;
+    let last = sim.snapshot().last_task.expect("the task ended");
+    assert_eq!(last.status.raw(), 8962, "cancelled: {last:?}");
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn dock_without_a_charging_point_sends_nothing_and_blinks_the_fault_led() {
+    let sim = simulator(1.0);
+    with_app_config(&sim, &Config::default(), async |shared| {
+        let mut leds = Leds(None);
+        wait_connected(&sim).await;
+        assert_eq!(
+            leds.until(shared, 3000, |i| i.fault == Led::Off)
+                .await
+                .fault,
+            Led::Off
+        );
+        click(shared, Button::Dock).await;
+        let shown = leds.until(shared, 2000, |i| i.fault == Led::Blink).await;
+        assert_eq!(shown.fault, Led::Blink, "the refused dock shows");
+        sleep(500).await;
+    })
+    .await;
+    assert_eq!(
+        polls(&sim.requests(), 1003),
+        0,
+        "no task without a charging point"
+    );
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn gait_steps_on_from_the_robots_reported_gait() {
+    let sim = simulator(1.0);
+    // The robot was switched to slope by someone else: the panel's next gait is perception
+    // stairs (Command 20 value 4), not the "normal stairs" a local counter would send.
+    sim.robot(|r| r.set_gait(GaitState::Slope));
+    with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        sleep(600).await;
+        let pressed = sim.elapsed().as_secs_f64();
+        click(shared, Button::Gait).await;
+        assert!(wait_for_command(&sim, 2000, pressed, 20).await.is_some());
+    })
+    .await;
+    let gait = sim
+        .requests()
+        .into_iter()
+        .rev()
+        .find_map(|e| match e.request {
+            Some(Request::Motion(MotionCommand::SwitchGait(gait))) => Some(gait),
+            _ => None,
+        })
+        .expect("a gait command");
+    assert_eq!(gait, MotionGait::PerceptionStairs);
 }

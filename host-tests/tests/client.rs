@@ -8,7 +8,7 @@ use embassy_time::{Duration, Instant};
 use std::io::{Read as _, Write as _};
 use std::net::{TcpListener, TcpStream};
 use std::thread;
-use x30_panel::client::{Backoff, ClientError, Link};
+use x30_panel::client::{ANSWER_OVERDUE, Backoff, ClientError, Health, Link, SILENT_AFTER};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::frame::{self, FrameDecoder};
 use x30_panel::proto::message::*;
@@ -287,4 +287,205 @@ async fn time_field_is_learned_from_answers() {
         "after an answer: the robot's time"
     );
     assert!(link.clock().is_learned());
+}
+
+fn ack(command: MotionCommand) -> Response {
+    Response::Motion(
+        command.code(),
+        MotionAck {
+            value: -1.0,
+            result: CommandResult::Success,
+        },
+    )
+}
+
+#[tokio::test]
+async fn requests_go_out_without_waiting_and_answers_match_in_any_order() {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let addr = peer(move |mut s| {
+        let mut d = FrameDecoder::new();
+        // Both requests arrive before either is answered; the answers come in reverse.
+        let first = read_request(&mut s, &mut d).unwrap();
+        let second = read_request(&mut s, &mut d).unwrap();
+        tx.send((first.1.clone(), second.1.clone())).unwrap();
+        let mut bytes = answer(second.0, &ack(MotionCommand::ZeroVelocity));
+        bytes.extend(answer(first.0, &ack(MotionCommand::SoftEmergencyStop)));
+        s.write_all(&bytes).unwrap();
+        thread::sleep(std::time::Duration::from_millis(200));
+    });
+    let mut link = connected(addr).await;
+    let estop = Request::Motion(MotionCommand::SoftEmergencyStop);
+    let zero = Request::Motion(MotionCommand::ZeroVelocity);
+    let first = link.send(&estop).await.unwrap();
+    let second = link.send(&zero).await.unwrap();
+    assert_eq!(link.outstanding(), 2);
+    let (got_first, got_second) = rx
+        .recv_timeout(std::time::Duration::from_secs(5))
+        .expect("the peer read both requests before answering");
+    assert_eq!((got_first, got_second), (estop, zero));
+    let a = link.receive().await.unwrap();
+    let b = link.receive().await.unwrap();
+    assert_eq!((a.message_id, a.request.command), (second, 6));
+    assert_eq!((b.message_id, b.request.command), (first, 13));
+    assert!(matches!(
+        a.result,
+        Ok(Response::Motion(MotionCommandCode::ZeroVelocity, _))
+    ));
+    assert_eq!(link.outstanding(), 0);
+}
+
+#[tokio::test]
+async fn type_0_with_an_unknown_message_id_answers_the_oldest_outstanding_request() {
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        let first = read_request(&mut s, &mut d).unwrap();
+        let second = read_request(&mut s, &mut d).unwrap();
+        // The robot could not read a header: its Type 0 carries an ID it made up (0xBEEF).
+        let error = Response::RequestError(RequestError {
+            code: RequestErrorCode::HeaderMissing,
+        });
+        let mut bytes = answer(0xBEEF, &error);
+        bytes.extend(answer(second.0, &ack(MotionCommand::ZeroVelocity)));
+        s.write_all(&bytes).unwrap();
+        drop(first);
+        thread::sleep(std::time::Duration::from_millis(200));
+    });
+    let mut link = connected(addr).await;
+    let first = link
+        .send(&Request::Motion(MotionCommand::SoftEmergencyStop))
+        .await
+        .unwrap();
+    let second = link
+        .send(&Request::Motion(MotionCommand::ZeroVelocity))
+        .await
+        .unwrap();
+    let a = link.receive().await.unwrap();
+    assert_eq!(a.message_id, first, "Type 0 answers the oldest");
+    assert_eq!(
+        a.result,
+        Err(ClientError::RequestError(RequestErrorCode::HeaderMissing))
+    );
+    let b = link.receive().await.unwrap();
+    assert_eq!(b.message_id, second);
+    assert!(b.result.is_ok());
+    assert_eq!(link.anomalies().unsolicited, 0);
+}
+
+#[tokio::test]
+async fn a_write_the_robot_never_takes_drops_the_connection_within_its_bound() {
+    // The peer accepts but never reads: once both kernels' buffers are full, a write cannot
+    // complete. The link must give up after WRITE_TIMEOUT and close, not hang.
+    let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
+    let addr = peer(move |s| {
+        let _ = done_rx.recv_timeout(std::time::Duration::from_secs(20));
+        drop(s);
+    });
+    let mut link = connected(addr).await;
+    let mut outcome = Ok(0);
+    // A bounded number of writes: loopback buffers hold a few MiB at most.
+    for _ in 0..200_000 {
+        outcome = link
+            .send(&Request::Motion(MotionCommand::ZeroVelocity))
+            .await;
+        if outcome.is_err() {
+            break;
+        }
+    }
+    done_tx.send(()).ok();
+    assert_eq!(outcome, Err(ClientError::WriteTimeout));
+    assert!(!link.is_connected(), "the stalled connection is dropped");
+}
+
+#[tokio::test]
+async fn a_robot_that_stops_answering_is_overdue_then_silent() {
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        // Read everything, answer nothing: a half-open robot.
+        while read_request(&mut s, &mut d).is_some() {}
+    });
+    let mut link = connected(addr).await;
+    let start = Instant::now();
+    assert_eq!(link.health(start), Health::Answering);
+    link.send(&Request::Status).await.unwrap();
+    let sent = Instant::now();
+    assert_eq!(link.health(sent), Health::Answering);
+    assert_eq!(
+        link.health(sent + ANSWER_OVERDUE),
+        Health::Overdue,
+        "an answer older than ANSWER_OVERDUE is overdue"
+    );
+    assert_eq!(
+        link.health(sent + SILENT_AFTER),
+        Health::Silent,
+        "nothing received for SILENT_AFTER with a request outstanding"
+    );
+    // Two requests given up on in a row make it silent too, whatever the clock says.
+    let later = sent + Duration::from_millis(600);
+    assert!(link.expire(later, Duration::from_millis(500)).is_some());
+    link.send(&Request::Status).await.unwrap();
+    assert!(
+        link.expire(
+            Instant::now() + Duration::from_secs(1),
+            Duration::from_millis(500)
+        )
+        .is_some()
+    );
+    assert_eq!(link.health(Instant::now()), Health::Silent);
+}
+
+#[tokio::test]
+async fn an_answer_clears_the_overdue_state() {
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        while let Some((id, _)) = read_request(&mut s, &mut d) {
+            s.write_all(&answer(id, &perception())).unwrap();
+        }
+    });
+    let mut link = connected(addr).await;
+    link.send(&Request::Perception).await.unwrap();
+    let answer = link.receive().await.unwrap();
+    assert!(answer.result.is_ok());
+    assert_eq!(
+        link.health(Instant::now() + SILENT_AFTER * 2),
+        Health::Answering,
+        "nothing outstanding, nothing overdue"
+    );
+}
+
+#[tokio::test]
+async fn a_robot_that_drops_every_connection_at_once_is_retried_with_backoff() {
+    // Accepts and closes at once, a few times over; no answer ever.
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    thread::spawn(move || {
+        for stream in listener.incoming().take(4) {
+            drop(stream);
+        }
+    });
+    let mut link = Link::new(TokioTransport::new(addr), backoff());
+    let mut delays = Vec::new();
+    for _ in 0..3 {
+        link.connect().await.expect("the peer accepts");
+        assert!(link.receive().await.is_err(), "the peer hangs up");
+        delays.push(link.reconnect_delay().as_millis());
+    }
+    assert_eq!(
+        delays,
+        [10, 20, 40],
+        "growing delays while nothing is answered"
+    );
+}
+
+#[tokio::test]
+async fn a_connection_that_answered_is_reopened_at_once_when_lost() {
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        let (id, _) = read_request(&mut s, &mut d).unwrap();
+        s.write_all(&answer(id, &perception())).unwrap();
+        // Then hang up.
+    });
+    let mut link = connected(addr).await;
+    link.perception(TIMEOUT).await.unwrap();
+    assert!(link.receive().await.is_err(), "the peer hangs up");
+    assert_eq!(link.reconnect_delay().as_millis(), 0, "a blip: no wait");
 }

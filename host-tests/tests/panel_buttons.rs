@@ -114,11 +114,23 @@ fn debouncers_for_every_button() {
         d.sample(Button::Estop, true, at(15)),
         Some(ButtonEvent {
             button: Button::Estop,
-            pressed: true
+            pressed: true,
+            at: at(15)
         })
     );
     assert_eq!(d.next_deadline(), Some(at(20)));
     assert_eq!(d.sample(Button::Gait, false, at(12)), None);
     assert_eq!(d.next_deadline(), None);
     assert_eq!(d.pending().count(), 0);
+}
+
+#[test]
+fn events_carry_when_the_level_became_stable() {
+    let mut d = ButtonDebouncers::new(DEBOUNCE);
+    assert_eq!(d.sample(Button::Forward, true, at(1000)), None);
+    let press = d.sample(Button::Forward, true, at(1015)).unwrap();
+    assert_eq!((press.pressed, press.at), (true, at(1015)));
+    assert_eq!(d.sample(Button::Forward, false, at(2000)), None);
+    let release = d.sample(Button::Forward, false, at(2015)).unwrap();
+    assert_eq!((release.pressed, release.at), (false, at(2015)));
 }

@@ -34,18 +34,15 @@ fn defaults_match_the_design() {
     assert_eq!(c.speeds.strafe_right, Speed::Default);
     assert_eq!(c.lights.as_slice(), &DEFAULT_LIGHTS);
     assert_eq!(c.lights[3].effect, LightEffect::Breathing);
-    assert_eq!(c.dock.point_info, PointInfo::Charging);
-    assert_eq!((c.dock.value, c.dock.map_id), (1, 1));
-    assert_eq!(
-        (c.dock.pos_x, c.dock.pos_y, c.dock.pos_z, c.dock.angle_yaw),
-        (0.0, 0.0, 0.0, 0.0)
-    );
+    // No default charging point is safe to walk to.
+    assert_eq!(c.dock, None);
     assert_eq!(c.polls.status, Duration::from_millis(500));
     assert_eq!(c.polls.battery, Duration::from_secs(5));
     assert_eq!(c.polls.motor_temperatures, Duration::from_secs(10));
     assert_eq!(c.polls.nav_status, Duration::from_secs(1));
     assert_eq!(c.motion_repeat, Duration::from_millis(250));
     assert_eq!(c.debounce, Duration::from_millis(15));
+    assert_eq!(c.estop_wiring, EstopWiring::NormallyOpen);
     assert_eq!(c.problems().count(), 0);
 }
 
@@ -61,7 +58,8 @@ fn every_variable_has_a_distinct_x30_name() {
         assert!(name.starts_with("X30_"), "{name}");
         assert!(!names[i + 1..].contains(name), "{name} twice");
     }
-    assert_eq!(names.len(), 18);
+    assert_eq!(names.len(), 19);
+    assert_eq!(Variable::EstopWiring.name(), "X30_ESTOP_WIRING");
 }
 
 #[test]
@@ -249,6 +247,7 @@ fn variables_override_defaults() {
         ("X30_POLL_NAV_MS", "500"),
         ("X30_REPEAT_MS", "200"),
         ("X30_DEBOUNCE_MS", "30"),
+        ("X30_ESTOP_WIRING", "nc"),
     ]);
     assert_eq!(c.robot.ip, [1, 2, 3, 4]);
     assert_eq!(c.robot.port, 30001);
@@ -256,13 +255,16 @@ fn variables_override_defaults() {
     assert_eq!(c.speeds.backward, Speed::Default);
     assert_eq!(c.speeds.strafe_right, Speed::Value(0.1));
     assert_eq!(c.lights.len(), 1);
-    assert_eq!((c.dock.value, c.dock.map_id, c.dock.angle_yaw), (7, 3, 0.5));
+    let dock = c.dock.expect("the configured charging point");
+    assert_eq!((dock.value, dock.map_id, dock.angle_yaw), (7, 3, 0.5));
+    assert_eq!(dock.point_info, PointInfo::Charging);
     assert_eq!(c.polls.status, Duration::from_millis(250));
     assert_eq!(c.polls.battery, Duration::from_millis(1000));
     assert_eq!(c.polls.motor_temperatures, Duration::from_secs(20));
     assert_eq!(c.polls.nav_status, Duration::from_millis(500));
     assert_eq!(c.motion_repeat, Duration::from_millis(200));
     assert_eq!(c.debounce, Duration::from_millis(30));
+    assert_eq!(c.estop_wiring, EstopWiring::NormallyClosed);
     assert!(problems(&c).is_empty());
 }
 
@@ -314,6 +316,7 @@ fn invalid_values_keep_the_default_and_are_reported() {
         ("X30_POLL_STATUS_MS", "0"),
         ("X30_REPEAT_MS", "1000"),
         ("X30_DEBOUNCE_MS", "fast"),
+        ("X30_ESTOP_WIRING", "closed"),
     ]);
     let d = Config::default();
     assert_eq!(c.robot, d.robot);
@@ -325,6 +328,8 @@ fn invalid_values_keep_the_default_and_are_reported() {
     assert_eq!(c.polls, d.polls);
     assert_eq!(c.motion_repeat, d.motion_repeat);
     assert_eq!(c.debounce, d.debounce);
+    assert_eq!(c.dock, None);
+    assert_eq!(c.estop_wiring, d.estop_wiring);
     assert_eq!(
         problems(&c),
         [
@@ -335,9 +340,60 @@ fn invalid_values_keep_the_default_and_are_reported() {
             "X30_DOCK",
             "X30_POLL_STATUS_MS",
             "X30_REPEAT_MS",
-            "X30_DEBOUNCE_MS"
+            "X30_DEBOUNCE_MS",
+            "X30_ESTOP_WIRING"
         ]
     );
+}
+
+#[test]
+fn estop_wiring_normally_open_is_pressed_when_low() {
+    assert!(EstopWiring::NormallyOpen.pressed(true));
+    assert!(!EstopWiring::NormallyOpen.pressed(false));
+}
+
+#[test]
+fn estop_wiring_normally_closed_is_pressed_when_high() {
+    assert!(
+        EstopWiring::NormallyClosed.pressed(false),
+        "a broken wire reads as pressed"
+    );
+    assert!(!EstopWiring::NormallyClosed.pressed(true));
+}
+
+#[test]
+fn estop_wiring_parses_no_and_nc_in_any_case() {
+    for no in ["no", "NO", "No"] {
+        assert_eq!(
+            EstopWiring::parse(no),
+            Some(EstopWiring::NormallyOpen),
+            "{no}"
+        );
+    }
+    for nc in ["nc", "NC", "nC"] {
+        assert_eq!(
+            EstopWiring::parse(nc),
+            Some(EstopWiring::NormallyClosed),
+            "{nc}"
+        );
+    }
+    for bad in ["", "n", "open", "closed", "nc ", "1"] {
+        assert_eq!(EstopWiring::parse(bad), None, "{bad:?}");
+    }
+    // Through the configuration: spaces around the value are ignored.
+    let c = config(&[("X30_ESTOP_WIRING", " NC ")]);
+    assert_eq!(c.estop_wiring, EstopWiring::NormallyClosed);
+    assert!(problems(&c).is_empty());
+    let c = config(&[("X30_ESTOP_WIRING", "No")]);
+    assert_eq!(c.estop_wiring, EstopWiring::NormallyOpen);
+    assert!(problems(&c).is_empty());
+}
+
+#[test]
+fn estop_wiring_invalid_keeps_normally_open_and_is_reported() {
+    let c = config(&[("X30_ESTOP_WIRING", "normally-closed")]);
+    assert_eq!(c.estop_wiring, EstopWiring::NormallyOpen);
+    assert_eq!(problems(&c), ["X30_ESTOP_WIRING"]);
 }
 
 #[test]

@@ -1,104 +1,489 @@
-//! The control state machine, rule by rule (DESIGN.md "Panel behaviour"), driven with
-//! simulated time.
+//! The control state machine, rule by rule (the rules are listed in the docs of
+//! `x30_panel::panel::control`), driven with simulated time.
 
 mod panel_support;
 
 use embassy_time::Duration;
 use panel_support::*;
-use x30_panel::config::{Config, DEFAULT_LIGHTS, parse_dock};
-use x30_panel::panel::control::QUEUE_CAPACITY;
-use x30_panel::panel::{Action, Button, Control, succeeded};
+use x30_panel::config::{Config, DEFAULT_LIGHTS};
+use x30_panel::panel::control::{ESTOP_REPEAT, ONE_SHOT_QUEUE};
+use x30_panel::panel::{Button, Control, STALE_PRESS, TaskOrder, succeeded};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::*;
 
-const FORWARD: MotionCommand = MotionCommand::Forward(Speed::Default);
-const BACKWARD: MotionCommand = MotionCommand::Backward(Speed::Default);
-const TURN_LEFT: MotionCommand = MotionCommand::TurnLeft(Speed::Default);
-const ZERO: MotionCommand = MotionCommand::ZeroVelocity;
-const ESTOP: MotionCommand = MotionCommand::SoftEmergencyStop;
+const FORWARD: Request = Request::Motion(MotionCommand::Forward(Speed::Default));
+const BACKWARD: Request = Request::Motion(MotionCommand::Backward(Speed::Default));
+const TURN_LEFT: Request = Request::Motion(MotionCommand::TurnLeft(Speed::Default));
+const ZERO: Request = Request::Motion(MotionCommand::ZeroVelocity);
+const ESTOP: Request = Request::Motion(MotionCommand::SoftEmergencyStop);
+const LIE_DOWN: Request = Request::Motion(MotionCommand::LieDown);
+const STOP_STEPPING: Request = Request::Motion(MotionCommand::StopStepping);
+const CANCEL: Request = Request::CancelNav;
 
-fn send(command: MotionCommand) -> Action {
-    Action::Send(Request::Motion(command))
+/// The Command 20 request that switches to `gait`.
+fn switch_gait(gait: MotionGait) -> Request {
+    Request::Motion(MotionCommand::SwitchGait(gait))
 }
 
-/// The motion commands among `actions`.
-fn motions(actions: &[(embassy_time::Instant, Action)]) -> Vec<MotionCommand> {
-    actions.iter().filter_map(|(_, a)| motion(a)).collect()
+/// The 1101 request of the light preset `index`.
+fn light(index: usize) -> Request {
+    Request::Light(DEFAULT_LIGHTS[index])
 }
 
-#[test]
-fn held_motion_button_repeats_at_4_hz() {
-    let mut c = connected();
-    c.button(Button::Forward, true, at(1000));
-    // Held for 10 s.
-    let sent = run(&mut c, at(1000), at(11_000));
-    let times: Vec<u64> = sent
-        .iter()
-        .filter(|(_, a)| motion(a) == Some(FORWARD))
-        .map(|(t, _)| t.as_millis())
-        .collect();
-    assert!((40..=41).contains(&times.len()), "{} commands", times.len());
-    assert_eq!(times[0], 1000);
-    assert!(times.windows(2).all(|w| w[1] - w[0] == 250), "{times:?}");
-    assert_eq!(sent.len(), times.len(), "only forward commands: {sent:?}");
-    c.button(Button::Forward, false, at(11_000));
-    assert_eq!(drain(&mut c, at(11_000)), [send(ZERO)]);
+/// `gait` pressed at `ms` while the robot reports `robot` (`None`: no fresh status).
+fn press_gait(c: &mut Control, ms: u64, robot: Option<GaitState>) {
+    c.button(event(Button::Gait, true, ms), robot);
 }
 
 #[test]
-fn first_command_goes_out_at_the_press() {
+fn timing_constants() {
+    assert_eq!(STALE_PRESS, Duration::from_millis(300));
+    assert_eq!(ESTOP_REPEAT, Duration::from_millis(250));
+    assert_eq!(Config::default().motion_repeat, Duration::from_millis(250));
+}
+
+// Stops first.
+
+#[test]
+fn stops_first_zero_velocity_then_cancel_then_motion_then_one_shots() {
     let mut c = connected();
+    // The one-shots were pressed first: a plain queue would send them first.
+    c.press(Button::LieDown, 0);
+    c.press(Button::Light, 0);
+    c.press(Button::Forward, 0);
+    c.release(Button::Forward, 0);
+    c.press(Button::Cancel, 0);
+    c.press(Button::Backward, 0);
+    assert_eq!(
+        drain(&mut c, at(0)),
+        [ZERO, CANCEL, BACKWARD, LIE_DOWN, light(1)]
+    );
+}
+
+#[test]
+fn stops_first_estop_goes_before_every_other_stop_and_one_shot() {
+    let mut c = connected();
+    c.press(Button::Estop, 0);
+    c.press(Button::Stop, 0);
+    c.press(Button::Cancel, 0);
+    c.press(Button::LieDown, 0);
+    assert_eq!(drain(&mut c, at(0)), [ESTOP, ZERO, CANCEL, LIE_DOWN]);
+    // A repeat of the e-stop goes first too.
+    c.press(Button::StopStepping, 240);
+    c.press(Button::Stop, 240);
+    assert_eq!(drain(&mut c, at(250)), [ESTOP, ZERO, STOP_STEPPING]);
+}
+
+// The e-stop latch.
+
+/// A control whose e-stop was pressed, and sent, at 0; the button is still down.
+fn latched() -> Control {
+    let mut c = connected();
+    c.press(Button::Estop, 0);
+    assert_eq!(drain(&mut c, at(0)), [ESTOP]);
+    c
+}
+
+/// Whether a forward press at `ms` goes out (the button is released again after).
+fn forward_goes_out(c: &mut Control, ms: u64) -> bool {
+    c.press(Button::Forward, ms);
+    let out = drain(c, at(ms));
+    c.release(Button::Forward, ms);
+    drain(c, at(ms));
+    out.contains(&FORWARD)
+}
+
+#[test]
+fn estop_latch_sends_at_once_and_every_250_ms_until_the_robot_confirms() {
+    let mut c = connected();
+    c.press(Button::Estop, 1000);
+    assert!(c.estop_unconfirmed());
+    assert!(c.next_deadline().unwrap() <= at(1000));
+    let mut sent = run(&mut c, at(1000), at(1400));
+    // A state other than soft e-stop (an answer to an older poll, say) confirms nothing.
+    c.robot_motion_state(MotionState::Stepping);
+    sent.extend(run(&mut c, at(1400), at(2000)));
+    assert_eq!(times_of(&sent, &ESTOP), [1000, 1250, 1500, 1750, 2000]);
+    assert_eq!(sent.len(), 5, "only e-stops: {sent:?}");
+    assert_eq!(c.next_deadline(), Some(at(2250)));
+    c.robot_motion_state(MotionState::SoftEmergencyStop);
+    assert!(!c.estop_unconfirmed());
+    assert!(c.motion_locked(), "confirmed is not unlocked");
     assert_eq!(c.next_deadline(), None);
-    c.button(Button::TurnLeft, true, at(1234));
-    assert!(c.next_deadline().unwrap() <= at(1234));
-    assert_eq!(c.next_action(at(1234)), Some(send(TURN_LEFT)));
-    assert_eq!(c.next_action(at(1234)), None);
-    assert_eq!(c.next_deadline(), Some(at(1484)));
-    assert_eq!(c.next_action(at(1483)), None);
-    assert_eq!(c.next_action(at(1484)), Some(send(TURN_LEFT)));
+    assert!(run(&mut c, at(2000), at(5000)).is_empty());
 }
 
 #[test]
-fn a_late_wake_up_sends_one_repeat_not_a_burst() {
-    let mut c = connected();
-    c.button(Button::Forward, true, at(0));
-    assert_eq!(drain(&mut c, at(0)), [send(FORWARD)]);
-    // The application was busy for a second.
-    assert_eq!(drain(&mut c, at(1000)), [send(FORWARD)]);
-    assert_eq!(c.next_deadline(), Some(at(1250)));
+fn estop_latch_a_press_while_disconnected_goes_out_first_when_the_connection_opens() {
+    let mut c = Control::new(&Config::default());
+    c.press(Button::Estop, 0);
+    c.release(Button::Estop, 100);
+    assert!(c.motion_locked());
+    assert_eq!(c.next_command(at(100), true), None);
+    assert_eq!(c.next_deadline(), None, "nothing to do while disconnected");
+    // Presses of the outage that are still fresh wait behind it.
+    c.press(Button::Stop, 4900);
+    c.press(Button::LieDown, 4900);
+    c.connection(true);
+    assert_eq!(drain(&mut c, at(5000)), [ESTOP, ZERO, LIE_DOWN]);
+    assert_eq!(c.next_deadline(), Some(at(5250)));
+    assert!(!forward_goes_out(&mut c, 5010), "motion is locked out");
 }
 
 #[test]
-fn release_sends_zero_velocity_and_repeats_stop() {
+fn estop_latch_repeats_continue_across_command_failures_and_answers() {
+    let mut c = latched();
+    // Timed out or refused.
+    c.command_answered(false);
+    assert!(c.last_failed());
+    assert_eq!(drain(&mut c, at(250)), [ESTOP]);
+    c.command_answered(false);
+    assert_eq!(drain(&mut c, at(500)), [ESTOP]);
+    // The robot accepting Command 13 is no confirmation: only its status is.
+    c.command_answered(true);
+    assert_eq!(drain(&mut c, at(750)), [ESTOP]);
+    assert!(c.estop_unconfirmed());
+}
+
+#[test]
+fn estop_latch_repeats_continue_across_a_reconnect_and_go_out_at_once() {
+    let mut c = latched();
+    c.connection(false);
+    assert_eq!(c.next_command(at(250), true), None);
+    // Back before the next repeat was due: the e-stop goes out at once all the same.
+    c.connection(true);
+    assert_eq!(drain(&mut c, at(100)), [ESTOP]);
+    assert_eq!(c.next_deadline(), Some(at(350)));
+    // Back after a long outage.
+    c.connection(false);
+    assert!(run(&mut c, at(100), at(5000)).is_empty());
+    c.connection(true);
+    let sent = run(&mut c, at(5000), at(5500));
+    assert_eq!(times_of(&sent, &ESTOP), [5000, 5250, 5500]);
+}
+
+#[test]
+fn estop_latch_refuses_motion_and_dock_but_not_other_one_shots() {
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Estop, 0);
+    assert_eq!(drain(&mut c, at(0)), [ESTOP]);
+    assert!(!c.last_failed());
+    c.press(Button::Dock, 10);
+    assert!(c.last_failed(), "a refused dock is shown");
+    assert!(!c.navigating());
+    assert_eq!(c.take_task(at(10)), None);
+    c.press(Button::Forward, 20);
+    assert_eq!(drain(&mut c, at(20)), []);
+    assert_eq!(c.active_motion(), None);
+    c.press(Button::LieDown, 30);
+    assert_eq!(drain(&mut c, at(30)), [LIE_DOWN]);
+    // Confirmed and released, the robot still in soft e-stop: still refused.
+    c.robot_motion_state(MotionState::SoftEmergencyStop);
+    c.release(Button::Estop, 40);
+    c.release(Button::Forward, 40);
+    assert!(!forward_goes_out(&mut c, 50));
+    c.press(Button::Dock, 60);
+    assert_eq!(c.take_task(at(60)), None);
+}
+
+#[test]
+fn estop_latch_stays_while_the_button_is_held() {
+    let mut c = latched();
+    c.robot_motion_state(MotionState::SoftEmergencyStop);
+    c.robot_motion_state(MotionState::LyingDown);
+    assert!(
+        c.motion_locked(),
+        "confirmed and left, but the button is down"
+    );
+    assert!(!forward_goes_out(&mut c, 100));
+    c.release(Button::Estop, 200);
+    assert!(!c.motion_locked());
+    assert!(forward_goes_out(&mut c, 300));
+}
+
+#[test]
+fn estop_latch_stays_without_the_robots_confirmation() {
+    let mut c = latched();
+    c.release(Button::Estop, 100);
+    // The robot never reported soft e-stop.
+    c.robot_motion_state(MotionState::LyingDown);
+    c.robot_motion_state(MotionState::Stepping);
+    assert!(c.motion_locked());
+    assert!(c.estop_unconfirmed());
+    assert!(!forward_goes_out(&mut c, 200));
+    c.robot_motion_state(MotionState::SoftEmergencyStop);
+    assert!(c.motion_locked());
+    c.robot_motion_state(MotionState::LyingDown);
+    assert!(!c.motion_locked());
+    assert!(forward_goes_out(&mut c, 300));
+}
+
+#[test]
+fn estop_latch_stays_until_a_later_state_other_than_soft_estop() {
+    let mut c = latched();
+    c.robot_motion_state(MotionState::SoftEmergencyStop);
+    c.release(Button::Estop, 100);
+    c.robot_motion_state(MotionState::SoftEmergencyStop);
+    assert!(
+        c.motion_locked(),
+        "released and confirmed, still in soft e-stop"
+    );
+    assert!(!forward_goes_out(&mut c, 200));
+    c.robot_motion_state(MotionState::LyingDown);
+    assert!(!c.motion_locked());
+    assert!(forward_goes_out(&mut c, 300));
+}
+
+#[test]
+fn estop_latch_a_new_press_needs_a_new_confirmation() {
+    let mut c = latched();
+    c.robot_motion_state(MotionState::SoftEmergencyStop);
+    c.robot_motion_state(MotionState::LyingDown);
+    c.release(Button::Estop, 100);
+    assert!(!c.motion_locked());
+    c.press(Button::Estop, 1000);
+    assert!(c.motion_locked());
+    assert!(
+        c.estop_unconfirmed(),
+        "the last confirmation does not count"
+    );
+    c.robot_motion_state(MotionState::LyingDown);
+    let sent = run(&mut c, at(1000), at(1500));
+    assert_eq!(times_of(&sent, &ESTOP), [1000, 1250, 1500]);
+}
+
+#[test]
+fn estop_latch_drops_queued_one_shots_and_an_ordered_dock() {
+    let mut c = connected_with(&with_dock());
+    c.press(Button::LieDown, 0);
+    c.press(Button::Light, 0);
+    c.press(Button::Dock, 0);
+    c.press(Button::Estop, 10);
+    assert_eq!(drain(&mut c, at(10)), [ESTOP]);
+    assert_eq!(c.take_task(at(10)), None);
+    assert!(!c.navigating());
+}
+
+#[test]
+fn estop_latch_ends_held_motion_which_needs_a_new_press_after() {
     let mut c = connected();
-    c.button(Button::Forward, true, at(0));
-    assert_eq!(drain(&mut c, at(0)), [send(FORWARD)]);
-    c.button(Button::Forward, false, at(100));
-    assert_eq!(c.next_action(at(100)), Some(send(ZERO)));
+    c.press(Button::Forward, 0);
+    assert_eq!(drain(&mut c, at(0)), [FORWARD]);
+    c.press(Button::Estop, 100);
+    assert_eq!(drain(&mut c, at(100)), [ESTOP]);
+    c.robot_motion_state(MotionState::SoftEmergencyStop);
+    assert!(run(&mut c, at(100), at(3000)).is_empty());
+    c.release(Button::Estop, 3000);
+    c.robot_motion_state(MotionState::LyingDown);
+    assert!(!c.motion_locked());
+    // The forward button was held all along, but it drives only after a new press.
+    assert!(run(&mut c, at(3000), at(4000)).is_empty());
+    c.release(Button::Forward, 4000);
+    assert_eq!(drain(&mut c, at(4000)), []);
+    assert!(forward_goes_out(&mut c, 4100));
+}
+
+// Zero velocity.
+
+#[test]
+fn zero_velocity_on_release_goes_before_queued_one_shots() {
+    let mut c = connected();
+    c.press(Button::Forward, 0);
+    assert_eq!(drain(&mut c, at(0)), [FORWARD]);
+    c.press(Button::LieDown, 100);
+    c.press(Button::StopStepping, 100);
+    c.release(Button::Forward, 100);
+    assert_eq!(drain(&mut c, at(100)), [ZERO, LIE_DOWN, STOP_STEPPING]);
+    // Once, not repeated.
     assert_eq!(c.next_deadline(), None);
     assert!(run(&mut c, at(100), at(5000)).is_empty());
 }
 
 #[test]
-fn configured_speed_is_sent() {
+fn zero_velocity_is_not_dropped_when_the_one_shot_queue_is_full() {
+    let mut c = connected();
+    c.press(Button::Forward, 0);
+    assert_eq!(drain(&mut c, at(0)), [FORWARD]);
+    for _ in 0..ONE_SHOT_QUEUE {
+        c.press(Button::LieDown, 100);
+    }
+    c.release(Button::Forward, 100);
+    assert!(!c.last_failed(), "nothing was dropped");
+    // A press beyond the full queue is dropped, but not the stop.
+    c.press(Button::StopStepping, 100);
+    assert!(c.last_failed());
+    let sent = drain(&mut c, at(100));
+    assert_eq!(sent.first(), Some(&ZERO), "{sent:?}");
+    assert_eq!(sent.len(), ONE_SHOT_QUEUE + 1, "{sent:?}");
+    // `stop` with a full queue, too.
+    for _ in 0..ONE_SHOT_QUEUE {
+        c.press(Button::LieDown, 200);
+    }
+    c.press(Button::Stop, 200);
+    assert_eq!(drain(&mut c, at(200)).first(), Some(&ZERO));
+}
+
+#[test]
+fn zero_velocity_goes_first_after_a_reconnect_that_cut_motion_and_the_button_needs_a_new_press() {
+    let mut c = connected();
+    c.press(Button::TurnLeft, 0);
+    assert_eq!(drain(&mut c, at(0)), [TURN_LEFT]);
+    c.connection(false);
+    assert_eq!(c.next_deadline(), None);
+    assert!(run(&mut c, at(0), at(2000)).is_empty());
+    c.press(Button::LieDown, 2000);
+    c.connection(true);
+    assert_eq!(drain(&mut c, at(2000)), [ZERO, LIE_DOWN]);
+    // The button stayed down, but it no longer drives.
+    assert_eq!(c.active_motion(), None);
+    assert!(run(&mut c, at(2000), at(5000)).is_empty());
+    // Its release sends nothing: it was not driving.
+    c.release(Button::TurnLeft, 5000);
+    assert_eq!(drain(&mut c, at(5000)), []);
+    c.press(Button::TurnLeft, 6000);
+    assert_eq!(drain(&mut c, at(6000)), [TURN_LEFT]);
+}
+
+#[test]
+fn zero_velocity_after_an_outage_whose_release_was_lost() {
+    let mut c = connected();
+    c.press(Button::Forward, 0);
+    assert_eq!(drain(&mut c, at(0)), [FORWARD]);
+    c.connection(false);
+    c.release(Button::Forward, 100);
+    c.connection(true);
+    assert_eq!(drain(&mut c, at(500)), [ZERO]);
+}
+
+#[test]
+fn an_outage_while_idle_sends_nothing() {
+    let mut c = connected();
+    c.press(Button::Forward, 0);
+    c.release(Button::Forward, 0);
+    assert_eq!(drain(&mut c, at(0)), [ZERO]);
+    c.connection(false);
+    c.connection(true);
+    assert_eq!(drain(&mut c, at(600)), []);
+    assert_eq!(c.next_deadline(), None);
+}
+
+#[test]
+fn stop_sends_zero_velocity_and_ends_held_motion() {
+    let mut c = connected();
+    c.press(Button::Forward, 0);
+    assert_eq!(drain(&mut c, at(0)), [FORWARD]);
+    c.press(Button::Stop, 100);
+    assert_eq!(drain(&mut c, at(100)), [ZERO]);
+    // The forward button is still down (stuck, say), but it no longer drives.
+    assert!(run(&mut c, at(100), at(2000)).is_empty());
+    c.release(Button::Forward, 2000);
+    assert_eq!(drain(&mut c, at(2000)), []);
+}
+
+// Motion.
+
+#[test]
+fn motion_repeats_at_the_configured_period_while_held_first_at_once() {
+    let mut c = connected();
+    c.press(Button::Forward, 1000);
+    // Held for 10 s.
+    let sent = run(&mut c, at(1000), at(11_000));
+    let times = times_of(&sent, &FORWARD);
+    assert_eq!(times.len(), 41, "{times:?}");
+    assert_eq!(times[0], 1000);
+    assert!(times.windows(2).all(|w| w[1] - w[0] == 250), "{times:?}");
+    assert_eq!(sent.len(), times.len(), "only forward commands: {sent:?}");
+    c.release(Button::Forward, 11_000);
+    assert_eq!(drain(&mut c, at(11_000)), [ZERO]);
+}
+
+#[test]
+fn motion_repeat_period_follows_the_configuration() {
+    let mut config = Config::default();
+    config.motion_repeat = Duration::from_millis(200);
+    let mut c = connected_with(&config);
+    c.press(Button::Forward, 0);
+    let sent = run(&mut c, at(0), at(999));
+    assert_eq!(times_of(&sent, &FORWARD), [0, 200, 400, 600, 800]);
+}
+
+#[test]
+fn motion_first_command_goes_out_at_the_press() {
+    let mut c = connected();
+    assert_eq!(c.next_deadline(), None);
+    c.press(Button::TurnLeft, 1234);
+    assert!(c.next_deadline().unwrap() <= at(1234));
+    assert_eq!(c.next_command(at(1234), true), Some(TURN_LEFT));
+    assert_eq!(c.next_command(at(1234), true), None);
+    assert_eq!(c.next_deadline(), Some(at(1484)));
+    assert_eq!(c.next_command(at(1483), true), None);
+    assert_eq!(c.next_command(at(1484), true), Some(TURN_LEFT));
+}
+
+#[test]
+fn motion_a_late_wake_up_sends_one_repeat_not_a_burst() {
+    let mut c = connected();
+    c.press(Button::Forward, 0);
+    assert_eq!(drain(&mut c, at(0)), [FORWARD]);
+    // The application was busy for a second.
+    assert_eq!(drain(&mut c, at(1000)), [FORWARD]);
+    assert_eq!(c.next_deadline(), Some(at(1250)));
+}
+
+#[test]
+fn motion_not_allowed_skips_the_due_repeat_and_sends_no_burst_after() {
+    let mut c = connected();
+    c.press(Button::Forward, 0);
+    assert_eq!(c.next_command(at(0), true), Some(FORWARD));
+    // The robot's answers are overdue: the repeat due at 250 is skipped...
+    assert_eq!(c.next_command(at(250), false), None);
+    assert_eq!(c.next_deadline(), Some(at(500)));
+    // ...and not sent late once motion is allowed again.
+    assert_eq!(c.next_command(at(300), true), None);
+    assert_eq!(c.next_command(at(500), true), Some(FORWARD));
+    // Overdue for a second: one repeat at the following period, not one per skipped one.
+    for ms in [750, 1000, 1250] {
+        assert_eq!(c.next_command(at(ms), false), None, "{ms}");
+    }
+    assert_eq!(c.next_command(at(1300), true), None);
+    assert_eq!(drain(&mut c, at(1500)), [FORWARD]);
+}
+
+#[test]
+fn motion_not_allowed_still_lets_stops_and_one_shots_out() {
+    let mut c = connected();
+    c.press(Button::Forward, 0);
+    assert_eq!(c.next_command(at(0), true), Some(FORWARD));
+    c.press(Button::LieDown, 100);
+    c.release(Button::Forward, 100);
+    assert_eq!(c.next_command(at(100), false), Some(ZERO));
+    assert_eq!(c.next_command(at(100), false), Some(LIE_DOWN));
+    c.press(Button::Estop, 200);
+    assert_eq!(c.next_command(at(200), false), Some(ESTOP));
+}
+
+#[test]
+fn motion_configured_speed_is_sent() {
     let mut config = Config::default();
     config.speeds.forward = Speed::Value(0.8);
     config.speeds.strafe_left = Speed::Value(0.12);
     let mut c = connected_with(&config);
-    c.button(Button::Forward, true, at(0));
+    c.press(Button::Forward, 0);
     assert_eq!(
         drain(&mut c, at(0)),
-        [send(MotionCommand::Forward(Speed::Value(0.8)))]
+        [Request::Motion(MotionCommand::Forward(Speed::Value(0.8)))]
     );
-    c.button(Button::StrafeLeft, true, at(10));
+    c.press(Button::StrafeLeft, 10);
     assert_eq!(
         drain(&mut c, at(10)),
-        [send(MotionCommand::StrafeLeft(Speed::Value(0.12)))]
+        [Request::Motion(MotionCommand::StrafeLeft(Speed::Value(
+            0.12
+        )))]
     );
 }
 
 #[test]
-fn every_motion_button_sends_its_command() {
+fn motion_every_motion_button_sends_its_command() {
     let cases = [
         (Button::Forward, 1),
         (Button::Backward, 2),
@@ -109,26 +494,28 @@ fn every_motion_button_sends_its_command() {
     ];
     for (button, code) in cases {
         let mut c = connected();
-        c.button(button, true, at(0));
-        let command = motion(&c.next_action(at(0)).unwrap()).unwrap();
+        c.press(button, 0);
+        let Some(Request::Motion(command)) = c.next_command(at(0), true) else {
+            panic!("{button:?} sent no motion command");
+        };
         assert_eq!(command.code().raw(), code, "{button:?}");
         assert_eq!(command.value(), MotionValue::Float(-1.0));
     }
 }
 
 #[test]
-fn latest_press_wins_and_release_falls_back() {
+fn motion_latest_press_drives_and_release_falls_back() {
     let mut c = connected();
     let mut sent = Vec::new();
-    c.button(Button::Forward, true, at(0));
+    c.press(Button::Forward, 0);
     sent.extend(run(&mut c, at(0), at(99)));
-    c.button(Button::TurnLeft, true, at(100));
+    c.press(Button::TurnLeft, 100);
     sent.extend(run(&mut c, at(100), at(199)));
-    c.button(Button::Backward, true, at(200));
+    c.press(Button::Backward, 200);
     sent.extend(run(&mut c, at(200), at(600)));
     assert_eq!(
         sent.iter()
-            .map(|(t, a)| (t.as_millis(), motion(a).unwrap()))
+            .map(|(t, r)| (t.as_millis(), r.clone()))
             .collect::<Vec<_>>(),
         [
             (0, FORWARD),
@@ -138,388 +525,462 @@ fn latest_press_wins_and_release_falls_back() {
         ]
     );
     // Releasing a button that does not drive changes nothing.
-    c.button(Button::TurnLeft, false, at(600));
+    c.release(Button::TurnLeft, 600);
     assert_eq!(drain(&mut c, at(600)), []);
     assert_eq!(c.active_motion(), Some(Button::Backward));
     // Releasing the driving one falls back to the latest still held, at once.
-    c.button(Button::Backward, false, at(650));
-    assert_eq!(drain(&mut c, at(650)), [send(FORWARD)]);
+    c.release(Button::Backward, 650);
+    assert_eq!(drain(&mut c, at(650)), [FORWARD]);
     assert_eq!(c.next_deadline(), Some(at(900)));
-    assert_eq!(drain(&mut c, at(900)), [send(FORWARD)]);
-    c.button(Button::Forward, false, at(1000));
-    assert_eq!(drain(&mut c, at(1000)), [send(ZERO)]);
+    assert_eq!(drain(&mut c, at(900)), [FORWARD]);
+    c.release(Button::Forward, 1000);
+    assert_eq!(drain(&mut c, at(1000)), [ZERO]);
     assert_eq!(c.active_motion(), None);
 }
 
 #[test]
-fn pending_motion_is_replaced_by_the_latest() {
-    // The application was busy: only the latest motion matters when it comes back.
+fn motion_a_release_not_yet_followed_by_zero_velocity_still_sends_it_first() {
+    // The application was busy: the release's stop is not lost behind the next press.
     let mut c = connected();
-    c.button(Button::Forward, true, at(0));
-    c.button(Button::Forward, false, at(50));
-    c.button(Button::Backward, true, at(80));
-    assert_eq!(drain(&mut c, at(100)), [send(BACKWARD)]);
+    c.press(Button::Forward, 0);
+    c.release(Button::Forward, 50);
+    c.press(Button::Backward, 80);
+    assert_eq!(drain(&mut c, at(100)), [ZERO, BACKWARD]);
 }
 
 #[test]
-fn stop_sends_zero_velocity_and_ends_held_motion() {
-    let mut c = connected();
-    c.button(Button::Forward, true, at(0));
-    assert_eq!(drain(&mut c, at(0)), [send(FORWARD)]);
-    c.button(Button::Stop, true, at(100));
-    assert_eq!(drain(&mut c, at(100)), [send(ZERO)]);
-    // The forward button is still down (stuck, say), but it no longer drives.
-    assert!(run(&mut c, at(100), at(2000)).is_empty());
-    c.button(Button::Forward, false, at(2000));
+fn motion_presses_while_disconnected_are_dropped() {
+    let mut c = Control::new(&Config::default());
+    c.press(Button::Backward, 0);
+    assert_eq!(c.active_motion(), None);
+    c.connection(true);
+    assert!(run(&mut c, at(0), at(2000)).is_empty());
+    c.release(Button::Backward, 2000);
     assert_eq!(drain(&mut c, at(2000)), []);
 }
 
-#[test]
-fn one_off_commands() {
-    let mut c = connected();
-    c.button(Button::StopStepping, true, at(0));
-    c.button(Button::StopStepping, false, at(50));
-    c.button(Button::LieDown, true, at(100));
-    c.button(Button::Cancel, true, at(200));
-    assert_eq!(
-        drain(&mut c, at(200)),
-        [
-            send(MotionCommand::StopStepping),
-            send(MotionCommand::LieDown),
-            Action::CancelNavigation
-        ]
-    );
-    assert_eq!(c.next_deadline(), None);
+// Nothing stale.
+
+/// The one-shot presses and what each sends first, with the robot walking.
+fn one_shots() -> [(Button, Request); 5] {
+    [
+        (Button::StopStepping, STOP_STEPPING),
+        (Button::LieDown, LIE_DOWN),
+        (Button::Gait, switch_gait(MotionGait::NormalStairs)),
+        (Button::Light, light(1)),
+        (Button::Cancel, CANCEL),
+    ]
 }
 
 #[test]
-fn estop_goes_ahead_of_everything_and_clears_the_queue() {
-    let mut c = connected();
-    c.button(Button::Gait, true, at(0));
-    c.button(Button::Light, true, at(10));
-    c.button(Button::Forward, true, at(20));
-    c.button(Button::Estop, true, at(30));
-    assert_eq!(drain(&mut c, at(30)), [send(ESTOP)]);
-    // No repeat of the forward button held before the e-stop.
-    assert!(run(&mut c, at(30), at(2000)).is_empty());
-}
-
-#[test]
-fn estop_jumps_the_queue_of_a_busy_application() {
-    let mut c = connected();
-    c.button(Button::LieDown, true, at(0));
-    c.button(Button::Estop, true, at(10));
-    assert_eq!(c.next_action(at(10)), Some(send(ESTOP)));
-    assert_eq!(c.next_action(at(10)), None);
-}
-
-/// A control that has sent an e-stop whose button is still down.
-fn after_estop() -> Control {
-    let mut c = connected();
-    c.button(Button::Estop, true, at(0));
-    assert_eq!(drain(&mut c, at(0)), [send(ESTOP)]);
-    c
-}
-
-/// Whether a forward press at `t` goes out.
-fn forward_goes_out(c: &mut Control, t: u64) -> bool {
-    c.button(Button::Forward, true, at(t));
-    let out = drain(c, at(t));
-    c.button(Button::Forward, false, at(t));
-    drain(c, at(t));
-    out.contains(&send(FORWARD))
-}
-
-#[test]
-fn estop_lock_out_needs_release_then_robot_out_of_soft_estop() {
-    let mut c = after_estop();
-    assert!(c.motion_locked());
-    assert!(!forward_goes_out(&mut c, 10));
-    c.robot_motion_state(MotionState::SoftEmergencyStop);
-    c.button(Button::Estop, false, at(100));
-    assert!(
-        c.motion_locked(),
-        "released, but the robot is still in soft e-stop"
-    );
-    assert!(!forward_goes_out(&mut c, 110));
-    c.robot_motion_state(MotionState::LyingDown);
-    assert!(!c.motion_locked());
-    assert!(forward_goes_out(&mut c, 200));
-}
-
-#[test]
-fn estop_lock_out_needs_the_button_released_too() {
-    let mut c = after_estop();
-    c.robot_motion_state(MotionState::LyingDown);
-    assert!(
-        c.motion_locked(),
-        "robot out of soft e-stop, but the button is down"
-    );
-    assert!(!forward_goes_out(&mut c, 10));
-    c.button(Button::Estop, false, at(100));
-    assert!(!c.motion_locked());
-    assert!(forward_goes_out(&mut c, 110));
-}
-
-#[test]
-fn only_states_reported_after_the_estop_went_out_release_the_lock() {
-    let mut c = connected();
-    c.robot_motion_state(MotionState::Stepping);
-    c.button(Button::Estop, true, at(0));
-    // An answer to a poll sent before the e-stop arrives while it waits to be sent.
-    c.robot_motion_state(MotionState::Stepping);
-    assert_eq!(drain(&mut c, at(5)), [send(ESTOP)]);
-    c.button(Button::Estop, false, at(100));
-    assert!(c.motion_locked(), "no state seen since the e-stop went out");
-    c.robot_motion_state(MotionState::SoftEmergencyStop);
-    assert!(c.motion_locked());
-    c.robot_motion_state(MotionState::LyingDown);
-    assert!(!c.motion_locked());
-}
-
-#[test]
-fn estop_lock_out_blocks_dock_but_not_lie_down() {
-    let mut c = after_estop();
-    c.button(Button::Dock, true, at(10));
-    c.button(Button::LieDown, true, at(20));
-    assert_eq!(drain(&mut c, at(20)), [send(MotionCommand::LieDown)]);
-}
-
-#[test]
-fn estop_while_motion_held_stops_the_repeats() {
-    let mut c = connected();
-    c.button(Button::Forward, true, at(0));
-    assert_eq!(drain(&mut c, at(0)), [send(FORWARD)]);
-    c.button(Button::Estop, true, at(100));
-    assert_eq!(drain(&mut c, at(100)), [send(ESTOP)]);
-    assert!(run(&mut c, at(100), at(3000)).is_empty());
-    // After the lock-out ends, the still-held button needs a new press.
-    c.button(Button::Estop, false, at(3000));
-    c.robot_motion_state(MotionState::LyingDown);
-    assert!(run(&mut c, at(3000), at(4000)).is_empty());
-    c.button(Button::Forward, false, at(4000));
-    assert_eq!(drain(&mut c, at(4000)), []);
-}
-
-#[test]
-fn estop_button_held_through_an_outage_still_locks_motion() {
-    let mut c = Control::new(&Config::default());
-    c.button(Button::Estop, true, at(0));
-    c.link(true);
-    assert!(c.motion_locked());
-    assert!(!forward_goes_out(&mut c, 10));
-    c.button(Button::Estop, false, at(20));
-    // Nothing was sent, so nothing latched.
-    assert!(!c.motion_locked());
-    assert!(forward_goes_out(&mut c, 30));
-}
-
-#[test]
-fn presses_while_disconnected_are_dropped_not_replayed() {
-    let mut c = Control::new(&Config::default());
-    for (i, button) in Button::ALL.into_iter().enumerate() {
-        c.button(button, true, at(i as u64 * 10));
-        c.button(button, false, at(i as u64 * 10 + 5));
+fn nothing_stale_a_press_pulled_within_300_ms_goes_out() {
+    for (button, request) in one_shots() {
+        let mut c = connected();
+        c.button(event(button, true, 1000), Some(GaitState::Walk));
+        assert!(c.next_deadline().unwrap() <= at(1000));
+        assert_eq!(drain(&mut c, at(1300)), [request], "{button:?}");
+        assert!(!c.last_failed(), "{button:?}");
     }
-    assert_eq!(c.next_deadline(), None);
-    c.link(true);
-    assert_eq!(c.next_deadline(), None);
-    assert!(run(&mut c, at(200), at(2000)).is_empty());
-    // The dropped gait press did not advance the cycle either.
-    c.button(Button::Gait, true, at(2000));
-    assert_eq!(
-        drain(&mut c, at(2000)),
-        [send(MotionCommand::SwitchGait(MotionGait::NormalStairs))]
-    );
 }
 
 #[test]
-fn an_outage_drops_what_was_queued() {
+fn nothing_stale_a_press_not_pulled_within_300_ms_is_dropped_and_shown() {
+    for (button, _) in one_shots() {
+        let mut c = connected();
+        c.button(event(button, true, 1000), Some(GaitState::Walk));
+        assert_eq!(drain(&mut c, at(1301)), [], "{button:?}");
+        assert!(c.last_failed(), "{button:?}");
+        // Never sent later either.
+        assert_eq!(c.next_deadline(), None, "{button:?}");
+        assert_eq!(drain(&mut c, at(1302)), [], "{button:?}");
+    }
+}
+
+#[test]
+fn nothing_stale_a_stale_press_does_not_hold_back_a_fresh_one() {
     let mut c = connected();
-    c.button(Button::LieDown, true, at(0));
-    c.button(Button::Light, true, at(0));
-    c.link(false);
-    c.link(true);
-    assert_eq!(drain(&mut c, at(10)), []);
+    c.press(Button::LieDown, 1000);
+    c.press(Button::Light, 1200);
+    assert_eq!(drain(&mut c, at(1350)), [light(1)]);
+    assert!(c.last_failed());
 }
 
 #[test]
-fn held_motion_does_not_resume_after_reconnect() {
-    let mut c = connected();
-    c.button(Button::Forward, true, at(0));
-    assert_eq!(drain(&mut c, at(0)), [send(FORWARD)]);
-    c.link(false);
-    assert_eq!(c.next_deadline(), None);
-    assert!(run(&mut c, at(0), at(2000)).is_empty());
-    c.link(true);
-    // The robot hears zero velocity once, in case the release is lost with the link, and
-    // nothing more while the button stays down.
-    assert_eq!(run(&mut c, at(2000), at(5000)), [(at(2000), send(ZERO))]);
-    // Its release sends nothing either: it was not driving.
-    c.button(Button::Forward, false, at(5000));
-    assert_eq!(drain(&mut c, at(5000)), []);
-    c.button(Button::Forward, true, at(6000));
-    assert_eq!(drain(&mut c, at(6000)), [send(FORWARD)]);
-}
-
-#[test]
-fn zero_velocity_goes_out_first_after_an_outage_that_cut_motion() {
-    let mut c = connected();
-    c.button(Button::TurnLeft, true, at(0));
-    assert_eq!(
-        drain(&mut c, at(0)),
-        [send(MotionCommand::TurnLeft(Speed::Default))]
-    );
-    c.link(false);
-    c.button(Button::TurnLeft, false, at(100));
-    c.link(true);
-    assert_eq!(drain(&mut c, at(500)), [send(ZERO)]);
-    // An outage while idle sends nothing.
-    c.link(false);
-    c.link(true);
-    assert_eq!(drain(&mut c, at(600)), []);
-}
-
-#[test]
-fn button_held_during_outage_needs_a_new_press() {
+fn nothing_stale_presses_during_an_outage_go_stale() {
     let mut c = Control::new(&Config::default());
-    c.button(Button::Backward, true, at(0));
-    c.link(true);
-    assert!(run(&mut c, at(0), at(2000)).is_empty());
+    c.press(Button::LieDown, 0);
+    c.press(Button::Cancel, 0);
+    assert_eq!(c.next_command(at(0), true), None);
+    c.connection(true);
+    assert_eq!(drain(&mut c, at(1000)), []);
+    assert!(c.last_failed());
 }
 
 #[test]
-fn motion_press_during_navigation_cancels_the_task_first() {
+fn nothing_stale_one_shot_queue_is_bounded_and_a_press_beyond_is_shown() {
     let mut c = connected();
-    c.navigation(true);
-    c.button(Button::Forward, true, at(0));
-    assert_eq!(
-        drain(&mut c, at(0)),
-        [Action::CancelNavigation, send(FORWARD)]
+    for _ in 0..ONE_SHOT_QUEUE {
+        c.press(Button::LieDown, 0);
+    }
+    assert!(!c.last_failed());
+    c.press(Button::StopStepping, 0);
+    assert!(
+        c.last_failed(),
+        "the press beyond the queue is dropped and shown"
     );
+    assert_eq!(drain(&mut c, at(0)), vec![LIE_DOWN; ONE_SHOT_QUEUE]);
+    // An e-stop still gets in with the queue full.
+    for _ in 0..ONE_SHOT_QUEUE * 2 {
+        c.press(Button::LieDown, 10);
+    }
+    c.press(Button::Estop, 10);
+    assert_eq!(drain(&mut c, at(10)), [ESTOP]);
+}
+
+#[test]
+fn nothing_stale_a_dock_not_taken_within_300_ms_is_dropped() {
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Dock, 1000);
+    assert!(c.navigating());
+    assert_eq!(c.take_task(at(1301)), None);
+    assert!(c.last_failed());
+    assert!(!c.navigating());
+    assert_eq!(c.take_task(at(1302)), None, "not taken later either");
+    // Taken in time, it goes out.
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Dock, 1000);
+    let order = c.take_task(at(1300)).expect("a fresh order");
+    assert!(c.task_wanted(order.id, at(1300)));
+    assert!(!c.last_failed());
+}
+
+#[test]
+fn nothing_stale_a_task_not_sent_within_300_ms_of_its_press_is_not_wanted() {
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Dock, 1000);
+    let order = c.take_task(at(1000)).unwrap();
+    // Connecting took a while.
+    assert!(!c.task_wanted(order.id, at(1301)));
+    assert!(c.last_failed());
+    assert!(!c.navigating());
+}
+
+#[test]
+fn nothing_stale_a_task_withdrawn_after_take_task_is_not_wanted() {
+    for button in [Button::Cancel, Button::Stop, Button::Forward, Button::Estop] {
+        let mut c = connected_with(&with_dock());
+        c.press(Button::Dock, 0);
+        let order = c.take_task(at(10)).unwrap();
+        c.press(button, 20);
+        assert!(!c.task_wanted(order.id, at(30)), "{button:?}");
+        assert!(!c.navigating(), "{button:?}");
+    }
+}
+
+#[test]
+fn a_task_withdrawn_while_its_1003_went_out_is_cancelled_once_it_is_out() {
+    for button in [Button::Cancel, Button::Stop, Button::Forward, Button::Estop] {
+        let mut c = connected_with(&with_dock());
+        c.press(Button::Dock, 0);
+        let order = c.take_task(at(10)).unwrap();
+        assert!(c.task_wanted(order.id, at(10)));
+        // The press comes while the 1003 is being written.
+        c.press(button, 20);
+        drain(&mut c, at(20));
+        c.task_started(order.id, at(30));
+        assert!(!c.navigating(), "{button:?}");
+        assert!(
+            drain(&mut c, at(30)).contains(&CANCEL),
+            "{button:?}: the task that went out all the same is cancelled"
+        );
+    }
+}
+
+#[test]
+fn nothing_stale_an_older_order_is_not_wanted() {
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Dock, 0);
+    let first = c.take_task(at(0)).unwrap();
+    c.press(Button::Cancel, 10);
+    c.press(Button::Dock, 20);
+    let second = c.take_task(at(20)).unwrap();
+    assert_ne!(first.id, second.id);
+    assert!(!c.task_wanted(first.id, at(30)));
+    assert!(c.task_wanted(second.id, at(30)));
+}
+
+// Navigation.
+
+/// A control whose dock task, ordered at 0, runs; and its order.
+fn running_task() -> (Control, TaskOrder) {
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Dock, 0);
+    let order = c.take_task(at(0)).unwrap();
+    assert!(c.task_wanted(order.id, at(0)));
+    c.task_started(order.id, at(0));
+    assert!(c.navigating());
+    (c, order)
+}
+
+#[test]
+fn navigation_stop_during_a_running_task_sends_zero_velocity_and_cancel() {
+    let (mut c, _) = running_task();
+    c.press(Button::Stop, 1000);
+    assert_eq!(drain(&mut c, at(1000)), [ZERO, CANCEL]);
+    assert!(!c.navigating());
+}
+
+#[test]
+fn navigation_stop_withdraws_an_ordered_task_without_cancel() {
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Dock, 0);
+    let order = c.take_task(at(0)).unwrap();
+    c.press(Button::Stop, 10);
+    assert_eq!(drain(&mut c, at(10)), [ZERO]);
+    assert!(!c.task_wanted(order.id, at(10)));
+    assert!(!c.navigating());
+}
+
+#[test]
+fn navigation_motion_press_during_a_running_task_cancels_it_first() {
+    let (mut c, _) = running_task();
+    c.press(Button::Forward, 1000);
+    assert_eq!(drain(&mut c, at(1000)), [CANCEL, FORWARD]);
     assert!(!c.navigating());
     // A second press does not cancel again.
-    c.button(Button::TurnLeft, true, at(100));
-    assert_eq!(drain(&mut c, at(100)), [send(TURN_LEFT)]);
+    c.press(Button::TurnLeft, 1100);
+    assert_eq!(drain(&mut c, at(1100)), [TURN_LEFT]);
+}
+
+#[test]
+fn navigation_motion_press_withdraws_an_ordered_task_without_cancel() {
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Dock, 0);
+    c.press(Button::Forward, 10);
+    assert_eq!(drain(&mut c, at(10)), [FORWARD]);
+    assert_eq!(c.take_task(at(10)), None);
+}
+
+#[test]
+fn navigation_cancel_withdraws_an_ordered_task_and_sends_1004() {
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Dock, 0);
+    c.press(Button::Cancel, 10);
+    assert_eq!(drain(&mut c, at(10)), [CANCEL]);
+    assert!(!c.navigating());
+    assert_eq!(c.take_task(at(10)), None);
+}
+
+#[test]
+fn navigation_a_task_ends_with_its_answer() {
+    let (mut c, order) = running_task();
+    c.task_ended(order.id, true);
+    assert!(!c.navigating());
+    assert!(!c.last_failed());
+    let (mut c, order) = running_task();
+    c.task_ended(order.id, false);
+    assert!(!c.navigating());
+    assert!(c.last_failed(), "a failed or lost task is shown");
+}
+
+#[test]
+fn navigation_the_end_of_an_older_task_does_not_end_the_current_one() {
+    let (mut c, first) = running_task();
+    c.press(Button::Cancel, 1000);
+    assert_eq!(drain(&mut c, at(1000)), [CANCEL]);
+    c.press(Button::Dock, 1100);
+    let second = c.take_task(at(1100)).unwrap();
+    // The cancelled task's 1003 is answered now.
+    c.task_ended(first.id, true);
+    assert!(c.navigating());
+    assert!(c.task_wanted(second.id, at(1100)));
+}
+
+#[test]
+fn navigation_dock_while_a_task_runs_is_dropped() {
+    let (mut c, order) = running_task();
+    c.press(Button::Dock, 100);
+    assert_eq!(c.take_task(at(100)), None);
+    assert!(c.navigating());
+    c.task_ended(order.id, true);
+    c.press(Button::Dock, 200);
+    assert!(c.take_task(at(200)).is_some());
+}
+
+#[test]
+fn navigation_dock_ends_held_motion() {
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Forward, 0);
+    assert_eq!(drain(&mut c, at(0)), [FORWARD]);
+    c.press(Button::Dock, 100);
+    assert_eq!(c.active_motion(), None);
+    assert!(run(&mut c, at(100), at(2000)).is_empty());
+    assert!(c.take_task(at(100)).is_some());
+}
+
+// Dock.
+
+#[test]
+fn dock_without_a_configured_point_orders_nothing_and_is_shown() {
+    assert_eq!(Config::default().dock, None);
+    let mut c = connected();
+    c.press(Button::Dock, 0);
+    assert!(c.last_failed());
+    assert!(!c.navigating());
+    assert_eq!(c.take_task(at(0)), None);
+    assert_eq!(drain(&mut c, at(0)), []);
 }
 
 #[test]
 fn dock_navigates_to_the_configured_charging_point() {
-    let mut config = Config::default();
-    config.dock = parse_dock("5,2,1.5,2.5,0,1").unwrap();
+    let config = with_dock();
     let mut c = connected_with(&config);
-    c.button(Button::Dock, true, at(0));
-    let actions = drain(&mut c, at(0));
-    let [Action::Navigate(task)] = actions.as_slice() else {
-        panic!("{actions:?}");
-    };
-    assert_eq!(task.points.as_slice(), &[config.dock]);
-    let point = task.target().unwrap();
-    assert_eq!(point.point_info, PointInfo::Charging);
+    c.press(Button::Dock, 0);
+    assert!(!c.last_failed());
+    let order = c.take_task(at(0)).expect("an order");
+    let point = config.dock.unwrap();
+    assert_eq!(order.task.points.as_slice(), &[point]);
+    let target = order.task.target().unwrap();
+    assert_eq!(target.point_info, PointInfo::Charging);
     assert_eq!(
-        (point.value, point.map_id, point.pos_x, point.pos_y),
+        (target.value, target.map_id, target.pos_x, target.pos_y),
         (5, 2, 1.5, 2.5)
     );
-    assert!(Request::NavTask(task.clone()).validate().is_ok());
-    assert!(c.navigating(), "the task runs once its action is taken");
+    assert!(Request::NavTask(order.task.clone()).validate().is_ok());
+    assert!(c.navigating());
+    // Nothing goes out on the command connection for it.
+    assert_eq!(drain(&mut c, at(0)), []);
+}
+
+// Gait.
+
+#[test]
+fn gait_steps_on_from_the_robots_reported_gait() {
+    let cases = [
+        (GaitState::Walk, MotionGait::NormalStairs, 1),
+        (GaitState::ObstacleCrossing, MotionGait::Slope, 2),
+        (GaitState::Slope, MotionGait::PerceptionStairs, 4),
+        (GaitState::PerceptionStairs, MotionGait::Walk, 0),
+        (GaitState::AccumulatedFrameStairs, MotionGait::Walk, 0),
+        (GaitState::AccumulatedFrameStairs45, MotionGait::Walk, 0),
+        (GaitState::Unknown(5), MotionGait::Walk, 0),
+    ];
+    for (robot, next, raw) in cases {
+        let mut c = connected();
+        press_gait(&mut c, 0, Some(robot));
+        assert_eq!(drain(&mut c, at(0)), [switch_gait(next)], "{robot:?}");
+        assert_eq!(next.raw(), raw);
+    }
+    assert_eq!(GaitState::PerceptionStairs.raw(), 6);
 }
 
 #[test]
-fn default_dock_point() {
+fn gait_follows_the_robot_not_a_local_counter() {
     let mut c = connected();
-    c.button(Button::Dock, true, at(0));
-    let Some(Action::Navigate(task)) = c.next_action(at(0)) else {
-        panic!("no navigation");
-    };
-    let p = task.target().unwrap();
-    assert_eq!(
-        (p.value, p.map_id, p.point_info),
-        (1, 1, PointInfo::Charging)
-    );
-    assert_eq!(
-        (p.pos_x, p.pos_y, p.pos_z, p.angle_yaw),
-        (0.0, 0.0, 0.0, 0.0)
-    );
-}
-
-#[test]
-fn dock_then_motion_press_cancels_once_the_task_was_taken() {
-    let mut c = connected();
-    c.button(Button::Dock, true, at(0));
-    assert!(matches!(c.next_action(at(0)), Some(Action::Navigate(_))));
-    c.button(Button::Forward, true, at(100));
+    // The robot has not switched yet when the second press comes.
+    press_gait(&mut c, 0, Some(GaitState::Walk));
+    press_gait(&mut c, 100, Some(GaitState::Walk));
+    let normal_stairs = switch_gait(MotionGait::NormalStairs);
     assert_eq!(
         drain(&mut c, at(100)),
-        [Action::CancelNavigation, send(FORWARD)]
+        [normal_stairs.clone(), normal_stairs]
     );
 }
 
 #[test]
-fn motion_press_drops_a_dock_not_yet_sent() {
+fn gait_without_a_fresh_status_is_refused() {
     let mut c = connected();
-    c.button(Button::Dock, true, at(0));
-    c.button(Button::Forward, true, at(10));
-    assert_eq!(drain(&mut c, at(10)), [send(FORWARD)]);
-}
-
-#[test]
-fn dock_while_a_task_runs_is_dropped() {
-    let mut c = connected();
-    c.navigation(true);
-    c.button(Button::Dock, true, at(0));
+    press_gait(&mut c, 0, None);
+    assert!(c.last_failed());
     assert_eq!(drain(&mut c, at(0)), []);
-    c.navigation(false);
-    c.button(Button::Dock, true, at(100));
-    assert!(matches!(
-        drain(&mut c, at(100)).as_slice(),
-        [Action::Navigate(_)]
-    ));
+    assert_eq!(c.next_deadline(), None);
 }
 
 #[test]
-fn dock_ends_held_motion() {
-    let mut c = connected();
-    c.button(Button::Forward, true, at(0));
-    assert_eq!(drain(&mut c, at(0)), [send(FORWARD)]);
-    c.button(Button::Dock, true, at(100));
-    let sent = run(&mut c, at(100), at(2000));
-    assert_eq!(sent.len(), 1, "{sent:?}");
-    assert!(matches!(sent[0].1, Action::Navigate(_)));
+fn gait_codes_status_gait_to_command_20_gait() {
+    assert_eq!(GaitState::Walk.motion_gait(), Some(MotionGait::Walk));
+    assert_eq!(
+        GaitState::ObstacleCrossing.motion_gait(),
+        Some(MotionGait::NormalStairs)
+    );
+    assert_eq!(GaitState::Slope.motion_gait(), Some(MotionGait::Slope));
+    assert_eq!(
+        GaitState::PerceptionStairs.motion_gait(),
+        Some(MotionGait::PerceptionStairs)
+    );
+    for none in [
+        GaitState::AccumulatedFrameStairs,
+        GaitState::AccumulatedFrameStairs45,
+        GaitState::Unknown(3),
+    ] {
+        assert_eq!(none.motion_gait(), None, "{none:?}");
+    }
 }
 
 #[test]
-fn cancel_drops_a_dock_not_yet_sent_and_sends_1004() {
-    let mut c = connected();
-    c.button(Button::Dock, true, at(0));
-    c.button(Button::Cancel, true, at(10));
-    assert_eq!(drain(&mut c, at(10)), [Action::CancelNavigation]);
-    assert!(!c.navigating());
+fn gait_codes_command_20_gait_cycle_and_round_trip() {
+    let cycle = [
+        MotionGait::Walk,
+        MotionGait::NormalStairs,
+        MotionGait::Slope,
+        MotionGait::PerceptionStairs,
+    ];
+    for (i, gait) in cycle.into_iter().enumerate() {
+        assert_eq!(gait.next(), cycle[(i + 1) % cycle.len()], "{gait:?}");
+        assert_eq!(gait.gait_state().motion_gait(), Some(gait), "{gait:?}");
+    }
+    assert_eq!(MotionGait::Unknown(3).next(), MotionGait::Walk);
+    assert_eq!(MotionGait::Unknown(3).gait_state(), GaitState::Unknown(3));
+    // The two numberings differ: perception stairs is 4 for Command 20, 6 in the status.
+    assert_eq!(
+        (
+            MotionGait::PerceptionStairs.raw(),
+            MotionGait::PerceptionStairs.gait_state().raw()
+        ),
+        (4, 6)
+    );
+    assert_eq!(
+        MotionGait::NormalStairs.gait_state(),
+        GaitState::ObstacleCrossing
+    );
 }
 
 #[test]
-fn gait_cycles_walk_stairs_slope_perception_stairs() {
-    let mut c = connected();
-    let gaits: Vec<_> = (0..5)
-        .filter_map(|i| {
-            c.button(Button::Gait, true, at(i * 100));
-            c.button(Button::Gait, false, at(i * 100 + 50));
-            match motion(&c.next_action(at(i * 100 + 50))?)? {
-                MotionCommand::SwitchGait(g) => Some(g.raw()),
-                _ => None,
-            }
-        })
-        .collect();
-    assert_eq!(gaits, [1, 2, 4, 0, 1]);
+fn gait_codes_navigation_gait_to_status_gait() {
+    let cases = [
+        (NavGait::Walk, GaitState::Walk),
+        (NavGait::ObstacleCrossing, GaitState::ObstacleCrossing),
+        (NavGait::Slope, GaitState::Slope),
+        (NavGait::PerceptionStairs, GaitState::PerceptionStairs),
+        (
+            NavGait::AccumulatedFrameStairs,
+            GaitState::AccumulatedFrameStairs,
+        ),
+        (
+            NavGait::AccumulatedFrameStairs45,
+            GaitState::AccumulatedFrameStairs45,
+        ),
+        (NavGait::Unknown(9), GaitState::Unknown(9)),
+    ];
+    for (nav, status) in cases {
+        assert_eq!(nav.gait_state(), status, "{nav:?}");
+    }
+    assert_eq!(
+        [4, 6, 7].map(|raw| NavGait::from_raw(raw).gait_state().raw()),
+        [6, 7, 8]
+    );
 }
+
+// Light, answers and bookkeeping.
 
 #[test]
 fn light_cycles_through_the_presets() {
     let mut c = connected();
     let lights: Vec<_> = (0..5)
         .map(|i| {
-            c.button(Button::Light, true, at(i * 100));
-            match c.next_action(at(i * 100)) {
-                Some(Action::Send(Request::Light(light))) => light,
+            c.press(Button::Light, i * 100);
+            match c.next_command(at(i * 100), true) {
+                Some(Request::Light(light)) => light,
                 other => panic!("{other:?}"),
             }
         })
@@ -530,48 +991,33 @@ fn light_cycles_through_the_presets() {
 }
 
 #[test]
-fn queue_is_bounded_and_never_blocks() {
+fn command_answers_set_and_clear_the_failure() {
     let mut c = connected();
-    for i in 0..100 {
-        c.button(Button::LieDown, true, at(i));
-        c.button(Button::LieDown, false, at(i));
-    }
-    assert_eq!(drain(&mut c, at(100)).len(), QUEUE_CAPACITY);
-    // An e-stop still gets in when the queue is full.
-    for i in 0..100 {
-        c.button(Button::LieDown, true, at(200 + i));
-    }
-    c.button(Button::Estop, true, at(300));
-    assert_eq!(drain(&mut c, at(300)), [send(ESTOP)]);
-}
-
-#[test]
-fn sent_records_commands_not_polls() {
-    let mut c = connected();
-    assert_eq!(c.last_sent(), None);
-    c.sent(&Action::Send(Request::Status), false, at(10));
-    assert_eq!(c.last_sent(), None);
     assert!(!c.last_failed());
-    c.sent(&send(FORWARD), false, at(20));
-    assert_eq!(c.last_sent(), Some(at(20)));
+    c.command_answered(false);
     assert!(c.last_failed());
-    c.sent(&Action::CancelNavigation, true, at(30));
-    assert_eq!(c.last_sent(), Some(at(30)));
+    c.command_answered(true);
     assert!(!c.last_failed());
 }
 
 #[test]
-fn actions_map_to_requests() {
-    assert_eq!(Action::CancelNavigation.request(), Request::CancelNav);
-    let task = NavTask::to_point(Config::default().dock);
-    assert_eq!(
-        Action::Navigate(task.clone()).request(),
-        Request::NavTask(task)
-    );
-    assert_eq!(send(ZERO).request(), Request::Motion(ZERO));
-    assert!(send(ZERO).is_command());
-    assert!(!Action::Send(Request::Battery).is_command());
-    assert!(Action::Send(Request::Light(DEFAULT_LIGHTS[0])).is_command());
+fn last_sent_is_when_the_last_command_went_out() {
+    let mut c = connected();
+    assert_eq!(c.last_sent(), None);
+    c.press(Button::LieDown, 10);
+    assert_eq!(c.last_sent(), None, "pressed, not sent");
+    assert_eq!(drain(&mut c, at(20)), [LIE_DOWN]);
+    assert_eq!(c.last_sent(), Some(at(20)));
+}
+
+#[test]
+fn connection_is_reported() {
+    let mut c = Control::new(&Config::default());
+    assert!(!c.connected());
+    c.connection(true);
+    assert!(c.connected());
+    c.connection(false);
+    assert!(!c.connected());
 }
 
 #[test]
@@ -588,6 +1034,9 @@ fn answers_say_whether_a_command_succeeded() {
     assert!(!succeeded(&Response::Light(CommandAck {
         result: CommandResult::Failure
     })));
+    assert!(succeeded(&Response::CancelNav(CommandAck {
+        result: CommandResult::Success
+    })));
     let nav = |outcome| {
         Response::NavResult(NavResult {
             value: 1,
@@ -602,14 +1051,4 @@ fn answers_say_whether_a_command_succeeded() {
         code: RequestErrorCode::ParseFailed
     })));
     assert!(succeeded(&Response::Battery(battery())));
-}
-
-#[test]
-fn repeat_period_follows_the_configuration() {
-    let mut config = Config::default();
-    config.motion_repeat = Duration::from_millis(200);
-    let mut c = connected_with(&config);
-    c.button(Button::Forward, true, at(0));
-    let sent = run(&mut c, at(0), at(999));
-    assert_eq!(motions(&sent).len(), 5);
 }

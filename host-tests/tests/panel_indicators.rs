@@ -30,11 +30,25 @@ fn link_led_rules() {
     assert_eq!(link_led(LinkState::NoNetwork, &fresh, at(100)), Led::Off);
     assert_eq!(link_led(LinkState::Connecting, &fresh, at(100)), Led::Blink);
     assert_eq!(link_led(LinkState::Connected, &fresh, at(100)), Led::On);
-    // Connected, but the status cannot be read (yet, any more, or at all).
-    assert_eq!(link_led(LinkState::Connected, &empty, at(100)), Led::Blink);
-    assert_eq!(link_led(LinkState::Connected, &fresh, at(2000)), Led::Blink);
+    // Connected, but a connection's answers are overdue.
+    assert_eq!(
+        link_led(LinkState::NotAnswering, &fresh, at(100)),
+        Led::BlinkFast
+    );
+    // Connected, but no fresh status: the robot does not answer its polls.
+    assert_eq!(
+        link_led(LinkState::Connected, &empty, at(100)),
+        Led::BlinkFast
+    );
+    assert_eq!(link_led(LinkState::Connected, &fresh, at(1999)), Led::On);
+    assert_eq!(
+        link_led(LinkState::Connected, &fresh, at(2000)),
+        Led::BlinkFast
+    );
+    // An all-zero status is an answer: the robot answers, its state is not known (the
+    // fault LED shows that).
     let zero = view_with(RobotStatus::UNAVAILABLE);
-    assert_eq!(link_led(LinkState::Connected, &zero, at(100)), Led::Blink);
+    assert_eq!(link_led(LinkState::Connected, &zero, at(100)), Led::On);
 }
 
 #[test]
@@ -157,6 +171,29 @@ fn without_a_connection_only_a_failed_command_blinks_the_fault_led() {
 }
 
 #[test]
+fn not_answering_is_connected_for_the_fault_led() {
+    let empty = RobotView::new(&Config::default());
+    assert_eq!(
+        fault_led(LinkState::NotAnswering, &empty, false, at(100)),
+        Led::Blink
+    );
+    let zero = view_with(RobotStatus::UNAVAILABLE);
+    assert_eq!(
+        fault_led(LinkState::NotAnswering, &zero, false, at(100)),
+        Led::Blink
+    );
+    assert_eq!(
+        fault_led(
+            LinkState::NotAnswering,
+            &view_with(status()),
+            false,
+            at(100)
+        ),
+        Led::Off
+    );
+}
+
+#[test]
 fn indicators_together_and_when_they_change() {
     let v = view_with(status());
     let inputs = Inputs {
@@ -180,7 +217,7 @@ fn indicators_together_and_when_they_change() {
     assert_eq!(
         Indicators::derive(&inputs, at(2000)),
         Indicators {
-            link: Led::Blink,
+            link: Led::BlinkFast,
             activity: Led::Off,
             fault: Led::Blink
         }
@@ -190,11 +227,26 @@ fn indicators_together_and_when_they_change() {
 #[test]
 fn led_names_and_blinking() {
     assert_eq!(
-        [Led::Off, Led::On, Led::Blink].map(Led::name),
-        ["off", "on", "blink"]
+        [Led::Off, Led::On, Led::Blink, Led::BlinkFast].map(Led::name),
+        ["off", "on", "blink", "blink-fast"]
     );
     let lit = |ms| Led::Blink.is_lit(Instant::from_millis(ms));
     assert!(lit(0) && lit(249) && !lit(250) && !lit(499) && lit(500));
     assert!(Led::On.is_lit(at(250)) && !Led::Off.is_lit(at(0)));
     assert_eq!(Fault::BatteryLow.description(), "battery low");
+}
+
+#[test]
+fn fast_blink_is_8_hz() {
+    assert_eq!(FAST_BLINK_HALF_PERIOD.as_millis(), 62);
+    let lit = |ms| Led::BlinkFast.is_lit(Instant::from_millis(ms));
+    assert!(lit(0) && lit(61) && !lit(62) && !lit(123) && lit(124));
+    // Four times as many changes as the 2 Hz blink in a second.
+    let changes = |led: Led| {
+        (1..1000)
+            .filter(|&ms| led.is_lit(at(ms)) != led.is_lit(at(ms - 1)))
+            .count()
+    };
+    assert_eq!(changes(Led::Blink), 3);
+    assert_eq!(changes(Led::BlinkFast), 16);
 }

@@ -193,11 +193,15 @@ fn status_older_than_2_s_is_unavailable() {
 }
 
 #[test]
-fn all_zero_status_is_unavailable() {
+fn all_zero_status_is_unavailable_but_fresh() {
     let mut v = RobotView::new(&Config::default());
+    assert!(!v.status_fresh(at(0)));
     v.update(&Response::Status(RobotStatus::UNAVAILABLE), at(0));
     assert!(!v.status_readable(at(0)));
     assert_eq!(v.status(at(0)), None);
+    // The robot answered: that shows on the link LED, apart from what it said.
+    assert!(v.status_fresh(at(1999)));
+    assert!(!v.status_fresh(at(2000)));
 }
 
 #[test]

@@ -1,15 +1,36 @@
 //! The virtual panel's text lines (the QEMU board's buttons): `+NAME` press, `-NAME` release.
 
-use x30_panel::panel::virtual_panel::{LineError, LineReader, MAX_LINE, parse_line};
+use embassy_time::Instant;
+use x30_panel::panel::virtual_panel::{LineError, LineReader, MAX_LINE};
 use x30_panel::panel::{Button, ButtonEvent};
 
-fn event(button: Button, pressed: bool) -> Option<ButtonEvent> {
-    Some(ButtonEvent { button, pressed })
+/// When the lines of these tests arrive, unless a test says otherwise.
+const T: u64 = 1000;
+
+fn at(ms: u64) -> Instant {
+    Instant::from_millis(ms)
 }
 
-/// Feeds `bytes` and collects what each completed line said.
+/// The change of `button`, received at [`T`].
+fn event(button: Button, pressed: bool) -> Option<ButtonEvent> {
+    Some(ButtonEvent {
+        button,
+        pressed,
+        at: at(T),
+    })
+}
+
+/// What `line` says, received at [`T`].
+fn parse_line(line: &str) -> Result<Option<ButtonEvent>, LineError> {
+    x30_panel::panel::virtual_panel::parse_line(line, at(T))
+}
+
+/// Feeds `bytes`, all received at [`T`], and collects what each completed line said.
 fn lines(reader: &mut LineReader, bytes: &[u8]) -> Vec<Result<Option<ButtonEvent>, LineError>> {
-    bytes.iter().filter_map(|&b| reader.push(b)).collect()
+    bytes
+        .iter()
+        .filter_map(|&b| reader.push(b, at(T)))
+        .collect()
 }
 
 #[test]
@@ -101,5 +122,27 @@ fn bytes_that_are_not_text_are_an_error() {
     assert_eq!(
         lines(&mut reader, b"+\xff\xfe\n-dock\n"),
         vec![Err(LineError::NotText), Ok(event(Button::Dock, false))]
+    );
+}
+
+#[test]
+fn a_line_carries_when_it_was_received() {
+    assert_eq!(
+        x30_panel::panel::virtual_panel::parse_line("+dock", at(42)),
+        Ok(Some(ButtonEvent {
+            button: Button::Dock,
+            pressed: true,
+            at: at(42)
+        }))
+    );
+    // A line typed slowly counts from its end, when it says something.
+    let mut reader = LineReader::new();
+    for (i, &byte) in b"-gait".iter().enumerate() {
+        assert_eq!(reader.push(byte, at(100 + i as u64)), None);
+    }
+    let done = reader.push(b'\n', at(500)).unwrap().unwrap().unwrap();
+    assert_eq!(
+        (done.button, done.pressed, done.at),
+        (Button::Gait, false, at(500))
     );
 }

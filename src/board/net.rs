@@ -9,7 +9,8 @@ use embassy_net::tcp::{State, TcpSocket};
 use embassy_net::{IpAddress, IpEndpoint, Ipv4Address, Ipv4Cidr, Stack, StaticConfigV4};
 use embassy_time::{Duration, with_timeout};
 use embedded_io_async::{Error as _, ErrorKind, ErrorType, Read, Write};
-use x30_panel::client::Transport;
+use x30_panel::app::Links;
+use x30_panel::client::{Backoff, Link, RX_BUF, TX_BUF, Transport};
 use x30_panel::config::{Network, RobotAddress};
 
 /// How long `connect` waits for the board's address (DHCP) before it fails, so that the
@@ -23,6 +24,53 @@ pub const CLOSE_TIMEOUT: Duration = Duration::from_millis(500);
 pub const KEEP_ALIVE: Duration = Duration::from_secs(2);
 /// A connection that hears nothing (not even keep-alive answers) this long is reset.
 pub const IDLE_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Reconnection delays: quick after a blip, at most every 5 s while the robot is away.
+pub const BACKOFF: Backoff = Backoff::new(Duration::from_millis(250), Duration::from_secs(5));
+
+/// Sockets of the stack: the three connections to the robot and DHCP.
+pub const SOCKETS: usize = 4;
+
+/// One TCP socket's buffers: room for a whole answer and a whole request.
+pub struct SocketBuffers {
+    /// Received bytes not yet read.
+    rx: [u8; RX_BUF],
+    /// Written bytes not yet acknowledged.
+    tx: [u8; TX_BUF],
+}
+
+impl SocketBuffers {
+    /// Zeroed buffers, for a `static`.
+    pub const fn new() -> Self {
+        Self {
+            rx: [0; RX_BUF],
+            tx: [0; TX_BUF],
+        }
+    }
+}
+
+/// The buffers of the three connections' sockets.
+pub type LinkBuffers = [SocketBuffers; 3];
+
+/// The three connections to `robot` on `stack`, over `buffers`.
+pub fn links<'d>(
+    stack: Stack<'d>,
+    robot: IpEndpoint,
+    buffers: &'d mut LinkBuffers,
+) -> Links<TcpTransport<'d>> {
+    let [commands, polls, navigation] = buffers;
+    let link = |buffers: &'d mut SocketBuffers| {
+        Link::new(
+            TcpTransport::new(stack, robot, &mut buffers.rx, &mut buffers.tx),
+            BACKOFF,
+        )
+    };
+    Links {
+        commands: link(commands),
+        polls: link(polls),
+        navigation: link(navigation),
+    }
+}
 
 /// The stack configuration for the board's network settings.
 pub fn stack_config(network: &Network) -> embassy_net::Config {

@@ -3,14 +3,16 @@
 //!
 //! - **Network**: the STM32's Ethernet MAC in RMII mode with the LAN8742A at PHY address 0,
 //!   under embassy-net: DHCP by default or the static address of `X30_DHCP=0 X30_IP=…`
-//!   (`x30_panel::config`), a random seed from the RNG, and two TCP links to the robot
+//!   (`x30_panel::config`), a random seed from the RNG, and three TCP connections to the robot
 //!   ([`super::net`]). The MAC address is locally administered and derived from the chip's
 //!   unique ID, so it is stable per board (DHCP reservations work) and unique between boards.
 //! - **Buttons**: 14 GPIO inputs with the MCU's pull-ups, pressed = low (a button connects its
-//!   pin to GND), sampled every 2 ms and debounced ([`buttons`]).
+//!   pin to GND), sampled every 2 ms and debounced ([`buttons`]). The `estop` switch may be
+//!   wired normally closed instead (`X30_ESTOP_WIRING=nc`): then a broken wire reads as
+//!   pressed.
 //! - **LEDs**: LD1 green = link, LD2 blue = activity, LD3 red = fault ([`leds`]).
-//! - **Watchdog**: the IWDG, 1.5 s, fed only while the application loop shows progress
-//!   ([`watchdog`]).
+//! - **Watchdog**: the IWDG, 1.5 s, fed only while both the button task and the command loop
+//!   show progress ([`watchdog`]).
 //!
 //! # Pin map
 //!
@@ -52,8 +54,8 @@ mod buttons;
 mod leds;
 mod watchdog;
 
-use defmt::{error, info, warn};
-use embassy_executor::{SpawnError, SpawnToken, Spawner};
+use defmt::{info, unwrap, warn};
+use embassy_executor::Spawner;
 use embassy_futures::select::{Either, select};
 use embassy_net::{Runner, Stack, StackResources};
 use embassy_stm32::eth::{self, Ethernet, GenericPhy, PacketQueue, Sma};
@@ -66,10 +68,8 @@ use embassy_stm32::rcc::{
 use embassy_stm32::rng::{self, Rng};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::{Config as HalConfig, bind_interrupts, uid};
-use embassy_time::Duration;
 use static_cell::ConstStaticCell;
 use x30_panel::app::{self, Shared};
-use x30_panel::client::{Backoff, Link, RX_BUF, TX_BUF};
 use x30_panel::config::{Config, Network};
 // Linked for their side effects only: the defmt RTT transport and the panic handler, which
 // prints the panic message over defmt and halts the probe session with an error. Without a
@@ -79,7 +79,7 @@ use {defmt_rtt as _, panic_probe as _};
 use self::buttons::{Buttons, button_task};
 use self::leds::{Leds, led_task};
 use self::watchdog::watchdog_task;
-use super::net::{self, TcpTransport};
+use super::net::{self, LinkBuffers, SOCKETS, SocketBuffers};
 
 // Log lines carry the uptime in microseconds. Defined here rather than by embassy-time's
 // `defmt-timestamp-uptime` feature, which would put defmt into every board's image.
@@ -102,12 +102,6 @@ const RX_FRAMES: usize = 4;
 /// The Ethernet driver with the LAN8742A driven through the MAC's management interface.
 type Device = Ethernet<'static, ETH, GenericPhy<Sma<'static, ETH_SMA>>>;
 
-/// Sockets of the stack: the two links and DHCP.
-const SOCKETS: usize = 3;
-
-/// Reconnection delays: quick after a blip, at most every 5 s while the robot is away.
-const BACKOFF: Backoff = Backoff::new(Duration::from_millis(250), Duration::from_secs(5));
-
 /// What the board and the application share.
 static SHARED: Shared = Shared::new();
 
@@ -119,29 +113,12 @@ static PACKETS: ConstStaticCell<PacketQueue<TX_FRAMES, RX_FRAMES>> =
 static RESOURCES: ConstStaticCell<StackResources<SOCKETS>> =
     ConstStaticCell::new(StackResources::new());
 
-/// One TCP socket's buffers: room for a whole answer and a whole request.
-struct SocketBuffers {
-    /// Received bytes not yet read.
-    rx: [u8; RX_BUF],
-    /// Written bytes not yet acknowledged.
-    tx: [u8; TX_BUF],
-}
-
-impl SocketBuffers {
-    /// Zeroed buffers, for a `static`.
-    const fn new() -> Self {
-        Self {
-            rx: [0; RX_BUF],
-            tx: [0; TX_BUF],
-        }
-    }
-}
-
-/// The control link's socket buffers.
-static CONTROL_BUFFERS: ConstStaticCell<SocketBuffers> = ConstStaticCell::new(SocketBuffers::new());
-/// The navigation link's socket buffers.
-static NAVIGATION_BUFFERS: ConstStaticCell<SocketBuffers> =
-    ConstStaticCell::new(SocketBuffers::new());
+/// The socket buffers of the three connections to the robot.
+static LINK_BUFFERS: ConstStaticCell<LinkBuffers> = ConstStaticCell::new([
+    SocketBuffers::new(),
+    SocketBuffers::new(),
+    SocketBuffers::new(),
+]);
 
 /// Brings the board up and runs the panel, forever.
 pub async fn run(spawner: Spawner) -> ! {
@@ -205,37 +182,21 @@ pub async fn run(spawner: Spawner) -> ! {
         seed,
     );
 
-    spawn(&spawner, "watchdog", watchdog_task(dog, &SHARED));
-    spawn(&spawner, "network", network_task(runner));
-    spawn(&spawner, "address", address_task(stack));
-    spawn(&spawner, "LED", led_task(leds, &SHARED, stack));
-    spawn(
-        &spawner,
-        "button",
-        button_task(buttons, config.debounce, &SHARED),
-    );
+    // Each task is spawned once: a failure is a bug, and the panic stops the firmware (and
+    // the halted core stops feeding the watchdog, which resets the board).
+    spawner.spawn(unwrap!(watchdog_task(dog, &SHARED)));
+    spawner.spawn(unwrap!(network_task(runner)));
+    spawner.spawn(unwrap!(address_task(stack, &SHARED)));
+    spawner.spawn(unwrap!(led_task(leds, &SHARED)));
+    spawner.spawn(unwrap!(button_task(
+        buttons,
+        config.debounce,
+        config.estop_wiring,
+        &SHARED
+    )));
 
-    let robot = net::endpoint(config.robot);
-    let control = CONTROL_BUFFERS.take();
-    let navigation = NAVIGATION_BUFFERS.take();
-    let mut control = Link::new(
-        TcpTransport::new(stack, robot, &mut control.rx, &mut control.tx),
-        BACKOFF,
-    );
-    let mut navigation = Link::new(
-        TcpTransport::new(stack, robot, &mut navigation.rx, &mut navigation.tx),
-        BACKOFF,
-    );
-    app::run(&config, &mut control, &mut navigation, &SHARED).await
-}
-
-/// Starts a task, or logs why it could not start. Each task is spawned once, so this fails
-/// only if the code changes; a missing watchdog task then shows as a reset loop.
-fn spawn<S>(spawner: &Spawner, name: &str, task: Result<SpawnToken<S>, SpawnError>) {
-    match task {
-        Ok(token) => spawner.spawn(token),
-        Err(e) => error!("cannot start the {} task: {:?}", name, e),
-    }
+    let mut links = net::links(stack, net::endpoint(config.robot), LINK_BUFFERS.take());
+    app::run(&config, &mut links, &SHARED).await
 }
 
 /// The build-time configuration, with its invalid settings logged.
@@ -279,9 +240,10 @@ async fn network_task(mut runner: Runner<'static, Device>) -> ! {
     runner.run().await
 }
 
-/// Logs the Ethernet link and the board's address whenever they change.
+/// Tells the application and the log whether the board has a network: an Ethernet link
+/// and an address.
 #[embassy_executor::task]
-async fn address_task(stack: Stack<'static>) -> ! {
+async fn address_task(stack: Stack<'static>, shared: &'static Shared) -> ! {
     loop {
         stack.wait_link_up().await;
         info!("Ethernet link up");
@@ -290,9 +252,12 @@ async fn address_task(stack: Stack<'static>) -> ! {
                 Some(v4) => info!("network up: {}", v4.address),
                 None => info!("network up"),
             }
-            stack.wait_link_down().await;
+            shared.set_network(true);
+            // A lost lease counts as no network too.
+            select(stack.wait_link_down(), stack.wait_config_down()).await;
+            shared.set_network(false);
         }
-        warn!("Ethernet link down");
+        warn!("network down");
     }
 }
 

@@ -7,9 +7,11 @@ use super::{Backoff, ClientError, RobotClock};
 use crate::proto::codes::MessageType;
 use crate::proto::frame::{self, FrameDecoder, FrameError, MessageIds};
 use crate::proto::message::{
-    Battery, CommandAck, Light, MotionAck, MotionCommand, MotorTemperatures, NavResult, NavTask,
-    NavTaskState, Perception, Relocalize, RelocalizeAck, Request, Response, RobotStatus,
+    Battery, CommandAck, DecodeError, Decoded, Light, MotionAck, MotionCommand, MotorTemperatures,
+    NavResult, NavTask, NavTaskState, Perception, Relocalize, RelocalizeAck, Request, Response,
+    RobotStatus,
 };
+use crate::proto::outstanding::Outstanding;
 
 /// Frame buffer for answers: the largest, a real robot's 1002 answer with its extra items,
 /// is about 1.2 KiB.
@@ -29,18 +31,80 @@ pub trait Transport: Read + Write {
     async fn close(&mut self);
 }
 
-/// What went by on a connection that was not an answer to the request in hand.
+/// What went by on a connection that was not an answer to a request outstanding on it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Anomalies {
-    /// Frames whose message ID matched no pending request (late or unsolicited answers).
+    /// Frames whose message ID matched no outstanding request (late or unsolicited answers).
     pub unsolicited: u32,
     /// Stream errors the frame decoder skipped past: garbage, bad headers, oversized frames.
     pub stream_errors: u32,
 }
 
-/// A request/response connection to the robot: sends one request at a time and waits for
-/// the answer with the same message ID.
+/// How many requests may wait for their answers on one connection. A stop path writes
+/// without waiting, at most every 250 ms, and a request is given up on after about a
+/// second, so a handful is in flight at most; beyond this the oldest is given up on.
+pub const MAX_OUTSTANDING: usize = 16;
+
+/// A write that has not gone into the transport after this long means the robot takes no
+/// more bytes (its receive window is closed): the connection is dropped rather than let a
+/// stop wait behind it.
+pub const WRITE_TIMEOUT: Duration = Duration::from_millis(200);
+
+/// An answer not here after this long is overdue: the robot is slow or not answering, and
+/// motion is no longer written to the connection (stops still are).
+pub const ANSWER_OVERDUE: Duration = Duration::from_millis(500);
+
+/// With requests outstanding and nothing received for this long, the robot is silent and the
+/// connection is given up on.
+pub const SILENT_AFTER: Duration = Duration::from_secs(2);
+
+/// This many requests given up on in a row also make the robot silent.
+pub const SILENT_TIMEOUTS: u8 = 2;
+
+/// A request written on a connection, as remembered until its answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Sent {
+    /// The request's Type.
+    pub message_type: MessageType,
+    /// The request's Command.
+    pub command: i32,
+    /// When it was written.
+    pub at: Instant,
+}
+
+/// An answer received, with the request it answers.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Answer {
+    /// The request's message ID.
+    pub message_id: u16,
+    /// The request it answers.
+    pub request: Sent,
+    /// The answer, or why it is no usable answer (Type 0, another Type, undecodable); the
+    /// connection stays usable either way.
+    pub result: Result<Response, ClientError>,
+}
+
+/// Whether the robot answers on a connection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Health {
+    /// Nothing is overdue.
+    Answering,
+    /// An answer has waited longer than [`ANSWER_OVERDUE`]: write no motion.
+    Overdue,
+    /// Nothing received for [`SILENT_AFTER`] with requests outstanding, or
+    /// [`SILENT_TIMEOUTS`] requests in a row given up on: close and reconnect.
+    Silent,
+}
+
+/// A connection to the robot: writes requests, matches answers to them by message ID.
+///
+/// Requests may be written without waiting for earlier answers ([`Link::send`], then
+/// [`Link::receive`]), which is how stops overtake anything pending; [`Link::request`] and
+/// the typed calls send one request and wait for its answer.
 ///
 /// Errors say whether the connection survived ([`ClientError::connection_usable`]); when it
 /// did not, the link closes the transport and [`Link::connect`] must succeed before the
@@ -54,6 +118,16 @@ pub struct Link<T: Transport> {
     clock: RobotClock,
     backoff: Backoff,
     anomalies: Anomalies,
+    /// Requests written and not answered yet.
+    outstanding: Outstanding<Sent, MAX_OUTSTANDING>,
+    /// Since when requests have waited with nothing received; `None` while nothing waits.
+    waiting_since: Option<Instant>,
+    /// Requests given up on since the last answer.
+    timeouts_in_a_row: u8,
+    /// Whether the robot has answered on this connection since it opened: only then does
+    /// the backoff start again from its minimum, so that a robot that accepts connections
+    /// and drops them at once is not hammered.
+    answered: bool,
 }
 
 impl<T: Transport> Link<T> {
@@ -68,6 +142,10 @@ impl<T: Transport> Link<T> {
             clock: RobotClock::new(),
             backoff,
             anomalies: Anomalies::default(),
+            outstanding: Outstanding::new(),
+            waiting_since: None,
+            timeouts_in_a_row: 0,
+            answered: false,
         }
     }
 
@@ -81,7 +159,7 @@ impl<T: Transport> Link<T> {
         self.clock
     }
 
-    /// Adopts a clock learned elsewhere (the navigation link learns little by itself).
+    /// Adopts a clock learned elsewhere (a link that sends little learns little by itself).
     pub fn set_clock(&mut self, clock: RobotClock) {
         self.clock = clock;
     }
@@ -98,128 +176,268 @@ impl<T: Transport> Link<T> {
         match self.transport.connect().await {
             Ok(()) => {
                 self.connected = true;
-                self.backoff.reset();
+                self.answered = false;
                 info!("connected to the robot");
                 Ok(())
             }
-            Err(kind) => {
-                let retry_in = self.backoff.next_delay();
-                warn!(
-                    "connection failed ({:?}); retrying in {} ms",
-                    kind,
-                    retry_in.as_millis()
-                );
-                Err(retry_in)
-            }
+            Err(kind) => Err(self.retry_delay(kind)),
         }
     }
 
-    /// Closes the connection and forgets any partial answer.
+    /// Closes the connection and forgets any partial answer and every outstanding request.
     pub async fn disconnect(&mut self) {
         if self.connected {
             self.transport.close().await;
             self.connected = false;
         }
         self.rx.clear();
+        self.outstanding.clear();
+        self.timeouts_in_a_row = 0;
+        self.waiting_since = None;
+    }
+
+    /// Gives up on a connection whose robot went silent; the next attempt waits for the
+    /// backoff, so a robot that accepts connections but never answers is not hammered.
+    pub async fn give_up(&mut self) -> Duration {
+        self.disconnect().await;
+        self.retry_delay(ErrorKind::TimedOut)
+    }
+
+    /// How long to wait before reconnecting after the connection was lost: not at all if
+    /// the robot had answered on it (a blip), else the backoff's next delay.
+    pub fn reconnect_delay(&mut self) -> Duration {
+        if core::mem::take(&mut self.answered) {
+            Duration::from_ticks(0)
+        } else {
+            self.retry_delay(ErrorKind::ConnectionReset)
+        }
+    }
+
+    /// The backoff's next delay, logged with why the connection failed.
+    fn retry_delay(&mut self, kind: ErrorKind) -> Duration {
+        let retry_in = self.backoff.next_delay();
+        warn!(
+            "connection failed ({:?}); retrying in {} ms",
+            kind,
+            retry_in.as_millis()
+        );
+        retry_in
+    }
+
+    /// Whether the robot answers on this connection at `now`.
+    pub fn health(&self, now: Instant) -> Health {
+        let waited = |since: Instant| now.saturating_duration_since(since);
+        if self.timeouts_in_a_row >= SILENT_TIMEOUTS
+            || self
+                .waiting_since
+                .is_some_and(|w| waited(w) >= SILENT_AFTER)
+        {
+            Health::Silent
+        } else if self
+            .outstanding
+            .oldest()
+            .is_some_and(|(_, oldest)| waited(oldest.at) >= ANSWER_OVERDUE)
+        {
+            Health::Overdue
+        } else {
+            Health::Answering
+        }
+    }
+
+    /// When [`Link::health`] may next change without anything received.
+    pub fn health_deadline(&self) -> Option<Instant> {
+        let overdue = self
+            .outstanding
+            .oldest()
+            .map(|(_, oldest)| oldest.at.saturating_add(ANSWER_OVERDUE));
+        let silent = self.waiting_since.map(|w| w.saturating_add(SILENT_AFTER));
+        overdue.into_iter().chain(silent).min()
+    }
+
+    /// Gives up on the oldest request if it has waited `limit` or longer at `now`, and
+    /// returns it: its answer, if it comes, will be unsolicited.
+    pub fn expire(&mut self, now: Instant, limit: Duration) -> Option<(u16, Sent)> {
+        let (_, oldest) = self.outstanding.oldest()?;
+        if now.saturating_duration_since(oldest.at) < limit {
+            return None;
+        }
+        self.timeouts_in_a_row = self.timeouts_in_a_row.saturating_add(1);
+        self.outstanding.pop_oldest()
+    }
+
+    /// When the oldest outstanding request will have waited `limit`.
+    pub fn expiry(&self, limit: Duration) -> Option<Instant> {
+        self.outstanding
+            .oldest()
+            .map(|(_, sent)| sent.at.saturating_add(limit))
+    }
+
+    /// How many requests wait for their answers.
+    pub fn outstanding(&self) -> usize {
+        self.outstanding.len()
     }
 
     /// Sends `request` and waits up to `timeout` for its answer; `None` waits as long as
-    /// the connection lasts (a 1003 is answered only when the task ends).
+    /// the connection lasts (a 1003 is answered only when the task ends). A late answer is
+    /// recognised by its message ID and skipped.
     pub async fn request(
         &mut self,
         request: &Request,
         timeout: Option<Duration>,
     ) -> Result<Response, ClientError> {
+        let id = self.send(request).await?;
+        let answer = match timeout {
+            Some(limit) => match with_timeout(limit, self.answer_to(id)).await {
+                Ok(answer) => answer,
+                Err(_) => {
+                    self.outstanding.remove(id);
+                    self.timeouts_in_a_row = self.timeouts_in_a_row.saturating_add(1);
+                    Err(ClientError::Timeout)
+                }
+            },
+            None => self.answer_to(id).await,
+        };
+        answer.and_then(|answer| answer.result)
+    }
+
+    /// Encodes and writes one request without waiting for any answer; returns its message
+    /// ID. The write is bounded by [`WRITE_TIMEOUT`]: a robot that takes no more bytes
+    /// loses the connection rather than hold the caller.
+    pub async fn send(&mut self, request: &Request) -> Result<u16, ClientError> {
         if !self.connected {
             return Err(ClientError::NotConnected);
         }
-        let id = self.send(request).await?;
-        let answer = match timeout {
-            Some(limit) => with_timeout(limit, self.answer(id))
-                .await
-                .unwrap_or(Err(ClientError::Timeout)),
-            None => self.answer(id).await,
-        };
-        if let Err(e) = &answer
-            && !e.connection_usable()
-        {
-            self.disconnect().await;
-        }
-        let answer = answer?;
-        let expected = request.message_type();
-        match answer {
-            Response::RequestError(error) => Err(ClientError::RequestError(error.code)),
-            _ if answer.message_type() != expected => Err(ClientError::UnexpectedAnswer {
-                expected,
-                got: answer.message_type(),
-            }),
-            _ => Ok(answer),
-        }
-    }
-
-    /// Encodes and writes one request; returns its message ID.
-    async fn send(&mut self, request: &Request) -> Result<u16, ClientError> {
         let id = self.ids.next_id();
         let time = self.clock.at(Instant::now());
         let len = frame::encode_with(&mut self.tx, id, |body| {
             request.encode(&time, body).map_err(ClientError::Encode)
         })?;
         let bytes = self.tx.get(..len).unwrap_or_default();
-        let written = match self.transport.write_all(bytes).await {
-            Ok(()) => self.transport.flush().await,
-            Err(e) => Err(e),
+        // No flush: it would wait for the robot's acknowledgement, and the stack sends what
+        // is written without it.
+        let written = match with_timeout(WRITE_TIMEOUT, self.transport.write_all(bytes)).await {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(e)) => Err(ClientError::Io(e.kind())),
+            Err(_) => Err(ClientError::WriteTimeout),
         };
         if let Err(e) = written {
+            warn!("write failed ({:?}): closing the connection", e);
             self.disconnect().await;
-            return Err(ClientError::Io(e.kind()));
+            return Err(e);
+        }
+        let sent = Sent {
+            message_type: request.message_type(),
+            command: request.command(),
+            at: Instant::now(),
+        };
+        self.waiting_since.get_or_insert(sent.at);
+        if let Some((evicted, _)) = self.outstanding.push(id, sent) {
+            debug!("gave up on message {}: too many outstanding", evicted);
         }
         debug!(
             "sent Type {} Command {} as message {}",
-            request.message_type().raw(),
-            request.command(),
+            sent.message_type.raw(),
+            sent.command,
             id
         );
         Ok(id)
     }
 
-    /// Reads frames until the one answering message `id`; other frames are counted and
-    /// skipped, so the connection never falls out of step.
-    async fn answer(&mut self, id: u16) -> Result<Response, ClientError> {
+    /// Waits for the next answer to any outstanding request. Frames that answer none are
+    /// counted and skipped, so the connection never falls out of step.
+    ///
+    /// Cancel-safe: dropped while it waits, it loses nothing, so it can race a button in a
+    /// `select`. An error means the connection is gone (and closed).
+    pub async fn receive(&mut self) -> Result<Answer, ClientError> {
         loop {
-            while let Some(item) = self.rx.decode() {
-                match item {
-                    Ok(frame) if frame.message_id == id => {
-                        let decoded = Response::decode(frame.asdu).map_err(|e| match e {
-                            crate::proto::message::DecodeError::UnknownType(t) => {
-                                ClientError::UnknownType(t)
-                            }
-                            other => ClientError::Decode(other),
-                        })?;
-                        self.clock.learn(decoded.time, Instant::now());
-                        return Ok(decoded.message);
+            if let Some(answer) = self.next_buffered() {
+                return Ok(answer);
+            }
+            let n = match self.transport.read(self.rx.spare()).await {
+                Ok(0) => Err(ClientError::Closed),
+                Ok(n) => Ok(n),
+                Err(e) => Err(ClientError::Io(e.kind())),
+            };
+            match n {
+                Ok(n) => {
+                    // Any bytes show the robot alive, even the start of a large answer.
+                    if self.waiting_since.is_some() {
+                        self.waiting_since = Some(Instant::now());
                     }
-                    Ok(frame) => {
-                        self.anomalies.unsolicited = self.anomalies.unsolicited.saturating_add(1);
-                        warn!("skipped a frame for message {}", frame.message_id);
-                    }
-                    Err(e) => {
-                        self.anomalies.stream_errors =
-                            self.anomalies.stream_errors.saturating_add(1);
-                        log_stream_error(e);
-                    }
+                    self.rx.commit(n);
+                }
+                Err(e) => {
+                    self.disconnect().await;
+                    return Err(e);
                 }
             }
-            let spare = self.rx.spare();
-            let n = self
-                .transport
-                .read(spare)
-                .await
-                .map_err(|e| ClientError::Io(e.kind()))?;
-            if n == 0 {
-                return Err(ClientError::Closed);
-            }
-            self.rx.commit(n);
         }
+    }
+
+    /// Waits for the answer to message `id`, written with [`Link::send`], as long as the
+    /// connection lasts; answers to other requests are dropped.
+    pub async fn answer(&mut self, id: u16) -> Result<Response, ClientError> {
+        self.answer_to(id).await.and_then(|answer| answer.result)
+    }
+
+    /// Waits for the answer to message `id`; answers to other requests are dropped (their
+    /// callers gave up on them).
+    async fn answer_to(&mut self, id: u16) -> Result<Answer, ClientError> {
+        loop {
+            let answer = self.receive().await?;
+            if answer.message_id == id {
+                return Ok(answer);
+            }
+        }
+    }
+
+    /// The next answer among the frames already received, if any.
+    fn next_buffered(&mut self) -> Option<Answer> {
+        while let Some(item) = self.rx.decode() {
+            let frame = match item {
+                Ok(frame) => frame,
+                Err(e) => {
+                    self.anomalies.stream_errors = self.anomalies.stream_errors.saturating_add(1);
+                    log_stream_error(e);
+                    continue;
+                }
+            };
+            let decoded = Response::decode(frame.asdu);
+            let request_error = matches!(
+                decoded,
+                Ok(Decoded {
+                    message: Response::RequestError(_),
+                    ..
+                })
+            );
+            let Some((message_id, request)) =
+                self.outstanding.answer(frame.message_id, request_error)
+            else {
+                self.anomalies.unsolicited = self.anomalies.unsolicited.saturating_add(1);
+                warn!("skipped a frame for message {}", frame.message_id);
+                continue;
+            };
+            self.timeouts_in_a_row = 0;
+            self.waiting_since = (!self.outstanding.is_empty()).then(Instant::now);
+            if !self.answered {
+                self.answered = true;
+                self.backoff.reset();
+            }
+            let result = match decoded {
+                Ok(decoded) => {
+                    self.clock.learn(decoded.time, Instant::now());
+                    check_type(request.message_type, decoded.message)
+                }
+                Err(DecodeError::UnknownType(t)) => Err(ClientError::UnknownType(t)),
+                Err(other) => Err(ClientError::Decode(other)),
+            };
+            return Some(Answer {
+                message_id,
+                request,
+                result,
+            });
+        }
+        None
     }
 
     /// 1002: the robot's real-time status.
@@ -338,6 +556,15 @@ impl<T: Transport> Link<T> {
             Response::NavResult(result) => Ok(result),
             other => Err(unexpected(MessageType::NavTask, &other)),
         }
+    }
+}
+
+/// The answer as a result: Type 0 and answers of another Type than the request are errors.
+fn check_type(expected: MessageType, answer: Response) -> Result<Response, ClientError> {
+    match answer {
+        Response::RequestError(error) => Err(ClientError::RequestError(error.code)),
+        _ if answer.message_type() != expected => Err(unexpected(expected, &answer)),
+        _ => Ok(answer),
     }
 }
 

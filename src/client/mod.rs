@@ -5,9 +5,11 @@
 //! connections — message IDs, timeouts, Type 0 answers, reconnection, the wall-clock `Time`
 //! field — and never decides what to send; that is the panel's job.
 //!
-//! The panel keeps two [`Link`]s: a control link for every short request, and a navigation
-//! link that carries one 1003 and stays open until its answer, because the robot stops a
-//! task whose connection drops (ErrorStatus 41802).
+//! The panel keeps three [`Link`]s, as the protocol document advises for requests that must
+//! not wait on each other: a command link whose requests are written without waiting for
+//! earlier answers (so a stop never waits), a poll link for the state queries, and a
+//! navigation link that carries one 1003 and stays open until its answer, because the robot
+//! stops a task whose connection drops (ErrorStatus 41802).
 
 mod backoff;
 mod clock;
@@ -16,7 +18,10 @@ mod link;
 pub use backoff::Backoff;
 pub use clock::RobotClock;
 pub use embedded_io_async::ErrorKind;
-pub use link::{Anomalies, Link, RX_BUF, TX_BUF, Transport};
+pub use link::{
+    ANSWER_OVERDUE, Anomalies, Answer, Health, Link, MAX_OUTSTANDING, RX_BUF, SILENT_AFTER,
+    SILENT_TIMEOUTS, Sent, TX_BUF, Transport, WRITE_TIMEOUT,
+};
 
 use crate::proto::codes::{MessageType, RequestErrorCode};
 use crate::proto::message::DecodeError;
@@ -34,6 +39,9 @@ pub enum ClientError {
     Io(ErrorKind),
     /// The robot closed the connection before answering; the connection is closed.
     Closed,
+    /// The robot took no more bytes within [`WRITE_TIMEOUT`] (its receive window stayed
+    /// closed); the connection is closed, so that a stop never waits behind it.
+    WriteTimeout,
     /// No answer in time. The connection stays open: a late answer is recognised by its
     /// message ID and skipped.
     Timeout,
@@ -59,7 +67,10 @@ pub enum ClientError {
 impl ClientError {
     /// Whether the connection is still open after this error.
     pub fn connection_usable(&self) -> bool {
-        !matches!(self, Self::NotConnected | Self::Io(_) | Self::Closed)
+        !matches!(
+            self,
+            Self::NotConnected | Self::Io(_) | Self::Closed | Self::WriteTimeout
+        )
     }
 }
 

@@ -115,7 +115,8 @@ impl Button {
     }
 }
 
-/// A debounced change of a button.
+/// A debounced change of a button, with when it happened: a press is acted on only while
+/// it is fresh, never late.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ButtonEvent {
@@ -123,6 +124,8 @@ pub struct ButtonEvent {
     pub button: Button,
     /// Pressed (`true`) or released.
     pub pressed: bool,
+    /// When the change was seen (for a debounced input, when its level became stable).
+    pub at: Instant,
 }
 
 /// Debounces one input: reports a level once it has been stable for the debounce time.
@@ -199,7 +202,11 @@ impl ButtonDebouncers {
     pub fn sample(&mut self, button: Button, pressed: bool, now: Instant) -> Option<ButtonEvent> {
         let pin = self.pins.get_mut(button.index())?;
         let pressed = pin.sample(pressed, now)?;
-        Some(ButtonEvent { button, pressed })
+        Some(ButtonEvent {
+            button,
+            pressed,
+            at: now,
+        })
     }
 
     /// The earliest time a pending level becomes stable, when every button with one must be

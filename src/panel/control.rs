@@ -1,83 +1,56 @@
 //! The control state machine: debounced button events in, robot commands out.
 //!
-//! [`Control`] turns presses and releases into [`Action`]s, which the application pulls with
-//! [`Control::next_action`] and sends. It never blocks and never sends anything itself, so it
-//! holds only what is still to be sent: a short queue of commands from presses, and the held
-//! motion button whose command repeats every 250 ms.
+//! [`Control`] turns presses and releases into the requests of the command connection,
+//! which the application pulls with [`Control::next_command`] and writes at once, without
+//! waiting for earlier answers, and into navigation tasks for the navigation connection
+//! ([`Control::take_task`]). It never blocks and never sends anything itself.
 //!
-//! The rules, from DESIGN.md "Panel behaviour":
+//! The rules:
 //!
-//! - A motion button sends its Type 2 command at once when pressed, then every repeat period
-//!   while held (the robot needs 3–5 Hz), and Command 6 (zero velocity) when released. With
-//!   several held, the latest press drives; releasing it falls back to the latest of the others.
-//! - `stop` sends Command 6 and ends the held motion (a new press is needed), so that it also
-//!   stops a robot whose motion button is stuck.
-//! - `estop` sends Command 13 ahead of everything and drops everything still queued. Motion
-//!   (the six motion buttons and `dock`) stays locked out until the button is released **and**
-//!   the robot reports a motion state other than soft emergency stop (6), seen after the
-//!   Command 13 went out.
-//! - A motion press while a navigation task runs cancels the task (1004) first; a `dock` not
-//!   yet sent is simply dropped instead.
-//! - Nothing is queued while the robot is not connected: presses are dropped, never replayed,
-//!   and a motion button held across an outage needs a new press.
+//! - **Stops first.** What goes out next is, in this order: a due e-stop (Type 2 Command 13),
+//!   zero velocity (Command 6), a cancel (1004), the held motion button's command, then
+//!   one-shot commands. Stops are flags, not queue entries, so they are never dropped for
+//!   lack of room.
+//! - **E-stop latch.** `estop` latches: Command 13 goes out at once and again every
+//!   [`ESTOP_REPEAT`] until a status (1002) reports soft emergency stop (MotionState 6),
+//!   across timeouts, refusals and reconnects; a press during an outage goes out first when
+//!   the command connection is back. Motion and `dock` stay locked out until the button is
+//!   released, the robot has confirmed, and then reports a state other than 6.
+//! - **Motion.** A motion button sends its command at once and every repeat period while
+//!   held (the robot needs 3–5 Hz), and zero velocity when released; with several held the
+//!   latest press drives. Motion is not written while the robot's answers are overdue
+//!   (`motion_allowed`), so no backlog of repeats reaches a robot that wakes up. If the
+//!   command connection drops while motion is commanded, zero velocity goes out first when
+//!   it is back, and the held button needs a new press.
+//! - **Nothing stale.** A one-shot press (stop stepping, lie down, gait, light, cancel,
+//!   dock) that has not gone out within [`STALE_PRESS`] is dropped and the fault LED
+//!   blinks; it is never sent later. A navigation task cancelled or overridden before its
+//!   1003 went out is not sent.
+//! - **Navigation.** `stop` ends a running task with a 1004 as well as zero velocity (the
+//!   robot refuses motion during a task); a motion press cancels it first; `dock` without a
+//!   configured charging point does nothing but blink the fault LED.
+//! - **Gait** cycles from the robot's reported `GaitState`, not from a local counter.
 
 use embassy_time::{Duration, Instant};
 use heapless::{Deque, Vec};
 
-use super::buttons::Button;
+use super::buttons::{Button, ButtonEvent};
 use super::next_after;
 use crate::config::{Config, LightPresets, MotionSpeeds};
-use crate::proto::codes::{LocalizationResult, MotionGait, MotionState, NavOutcome};
+use crate::proto::codes::{GaitState, LocalizationResult, MotionGait, MotionState, NavOutcome};
 use crate::proto::message::{Light, MotionCommand, NavPoint, NavTask, Request, Response};
 
-/// How many commands may wait to be sent; a press beyond this is dropped (and logged).
-pub const QUEUE_CAPACITY: usize = 8;
+/// How long a press stays fresh: one not acted on by then is dropped, never sent late.
+pub const STALE_PRESS: Duration = Duration::from_millis(300);
+
+/// How often a latched e-stop is sent again until the robot confirms it.
+pub const ESTOP_REPEAT: Duration = Duration::from_millis(250);
+
+/// How many one-shot presses may wait to go out; one beyond is dropped (and shown).
+pub const ONE_SHOT_QUEUE: usize = 4;
 
 /// Motion buttons that can be held at once.
 const MOTION_BUTTONS: usize = 6;
-
-/// Something the application should do for the panel, in the order received.
-// The navigation task holds its points inline (no heap); an action exists only between
-// `next_action` and the send, so the size is paid on the stack, briefly.
-#[allow(clippy::large_enum_variant)]
-#[derive(Debug, Clone, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Action {
-    /// Send this request on the control connection.
-    Send(Request),
-    /// Start this navigation task (1003) on the navigation connection, which must stay open
-    /// until the task's answer (the robot stops a task whose client disconnects).
-    Navigate(NavTask),
-    /// Cancel the navigation task: send 1004 on the control connection. The robot answers the
-    /// running task's 1003 first (ErrorCode 2, on the navigation connection), then the 1004.
-    CancelNavigation,
-}
-
-impl Action {
-    /// The request to send for this action.
-    pub fn request(&self) -> Request {
-        match self {
-            Self::Send(request) => request.clone(),
-            Self::Navigate(task) => Request::NavTask(task.clone()),
-            Self::CancelNavigation => Request::CancelNav,
-        }
-    }
-
-    /// Whether this is a command (it changes the robot or its light) rather than a poll of
-    /// the robot's state; only commands flash the activity LED and count as failed.
-    pub fn is_command(&self) -> bool {
-        !matches!(
-            self,
-            Self::Send(
-                Request::Status
-                    | Request::NavStatus
-                    | Request::MotorTemperatures
-                    | Request::Battery
-                    | Request::Perception
-            )
-        )
-    }
-}
 
 /// Whether an answer reports success: `ErrorCode` 0 of a command, a navigation task that
 /// succeeded or was cancelled, a relocalisation that localised, or any state answer; a
@@ -102,21 +75,68 @@ pub fn succeeded(response: &Response) -> bool {
     }
 }
 
-/// A command waiting in the queue, small until it is turned into an [`Action`].
+/// A navigation task a press ordered, for the navigation connection.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TaskOrder {
+    /// Tells this order from later ones: ask [`Control::task_wanted`] with it just before
+    /// the 1003 goes out.
+    pub id: u32,
+    /// The task.
+    pub task: NavTask,
+}
+
+/// A command a single press sends once.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-enum Entry {
-    /// What the held motion buttons ask for now (a motion command or zero velocity); a newer
-    /// one replaces it, because only the latest motion matters.
-    Motion(MotionCommand),
-    /// A one-off Type 2 command: e-stop, stop stepping, lie down, gait.
+enum OneShot {
+    /// A Type 2 command: stop stepping, lie down, switch gait.
     Command(MotionCommand),
     /// A light preset (1101).
     Light(Light),
-    /// The navigation task to the dock (1003).
-    Dock,
-    /// Cancel the navigation task (1004).
-    Cancel,
+}
+
+/// Where the panel's navigation task stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum Task {
+    /// None.
+    Idle,
+    /// Pressed at `at`; its 1003 has not gone out.
+    Ordered {
+        /// The order's ID.
+        id: u32,
+        /// When `dock` was pressed.
+        at: Instant,
+    },
+    /// Its 1003 went out; the robot answers when it ends.
+    Running {
+        /// The order's ID.
+        id: u32,
+    },
+}
+
+/// The e-stop latch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+struct Estop {
+    /// Whether the button is down.
+    held: bool,
+    /// Whether motion is locked out by an e-stop press.
+    latched: bool,
+    /// Whether a status has reported soft emergency stop since the press.
+    confirmed: bool,
+    /// Whether a status has reported another state since the confirmation.
+    left: bool,
+    /// When Command 13 is due again, while latched and unconfirmed.
+    due: Instant,
+}
+
+impl Estop {
+    /// Whether Command 13 must still go out.
+    fn unconfirmed(&self) -> bool {
+        self.latched && !self.confirmed
+    }
 }
 
 /// The control state machine; see the module docs for its rules.
@@ -126,37 +146,34 @@ pub struct Control {
     speeds: MotionSpeeds,
     /// Presets of the `light` button.
     lights: LightPresets,
-    /// The dock's charging point.
-    dock: NavPoint,
+    /// The dock's charging point, if one is configured.
+    dock: Option<NavPoint>,
     /// Repeat period of a held motion button.
     repeat: Duration,
-    /// Commands from presses, oldest first.
-    queue: Deque<Entry, QUEUE_CAPACITY>,
     /// Motion buttons held since a press that was accepted, oldest first; the last one drives.
     held: Vec<Button, MOTION_BUTTONS>,
-    /// When the driving motion button's command is due again.
+    /// When the driving motion button's command is due (at once after a press).
     next_repeat: Option<Instant>,
-    /// Whether the control connection to the robot is up.
+    /// Whether the command connection is open.
     connected: bool,
-    /// Whether a navigation task runs (or is about to start).
-    navigating: bool,
-    /// Whether the e-stop button is down.
-    estop_held: bool,
-    /// Whether motion is locked out by an e-stop until the robot leaves soft emergency stop.
-    estop_latched: bool,
-    /// The robot's motion state last reported since the latest e-stop went out.
-    robot_state: Option<MotionState>,
-    /// The gait last sent (the robot starts in walk).
-    gait: MotionGait,
+    /// The e-stop latch.
+    estop: Estop,
+    /// Whether zero velocity must go out.
+    zero_velocity: bool,
+    /// A 1004 to send, with the press that asked for it.
+    cancel: Option<Instant>,
+    /// One-shot commands with their presses, oldest first.
+    one_shots: Deque<(OneShot, Instant), ONE_SHOT_QUEUE>,
+    /// The navigation task.
+    task: Task,
+    /// The last task order's ID.
+    task_ids: u32,
     /// Index of the light preset last sent (the first preset, "off", at start).
     light: usize,
-    /// When the last command was sent.
+    /// When the last command went out.
     last_sent: Option<Instant>,
-    /// Whether the last command failed.
+    /// Whether the last command failed or a press was dropped.
     last_failed: bool,
-    /// Whether motion was being commanded when the link dropped, so that zero velocity goes
-    /// out first when it is back.
-    stop_on_reconnect: bool,
 }
 
 impl Control {
@@ -168,167 +185,297 @@ impl Control {
             lights: config.lights.clone(),
             dock: config.dock,
             repeat: config.motion_repeat,
-            queue: Deque::new(),
             held: Vec::new(),
             next_repeat: None,
             connected: false,
-            navigating: false,
-            estop_held: false,
-            estop_latched: false,
-            robot_state: None,
-            gait: MotionGait::Walk,
+            estop: Estop {
+                held: false,
+                latched: false,
+                confirmed: false,
+                left: false,
+                due: Instant::MIN,
+            },
+            zero_velocity: false,
+            cancel: None,
+            one_shots: Deque::new(),
+            task: Task::Idle,
+            task_ids: 0,
             light: 0,
             last_sent: None,
             last_failed: false,
-            stop_on_reconnect: false,
         }
     }
 
-    /// A debounced press (`pressed`) or release of `button` at `now`.
-    pub fn button(&mut self, button: Button, pressed: bool, now: Instant) {
+    /// A debounced press or release. `robot_gait` is the robot's gait from a fresh status,
+    /// if there is one: `gait` steps on from it.
+    pub fn button(&mut self, event: ButtonEvent, robot_gait: Option<GaitState>) {
+        let ButtonEvent {
+            button,
+            pressed,
+            at,
+        } = event;
         if button == Button::Estop {
-            // The lock-out follows the physical button even while disconnected.
-            self.estop_held = pressed;
             if pressed {
-                self.estop();
+                self.press_estop();
             } else {
+                self.estop.held = false;
                 self.check_unlock();
             }
             return;
         }
         if !pressed {
             if button.is_motion() {
-                self.release(button, now);
+                self.release(button, at);
             }
-            return;
-        }
-        if !self.connected {
-            debug!("{} dropped: robot not connected", button.name());
             return;
         }
         match button {
             Button::Stop => {
                 self.end_motion();
-                self.push_motion(MotionCommand::ZeroVelocity);
+                self.zero_velocity = true;
+                self.end_task(at);
             }
-            Button::StopStepping => self.push(Entry::Command(MotionCommand::StopStepping)),
-            Button::LieDown => self.push(Entry::Command(MotionCommand::LieDown)),
-            Button::Gait => {
-                self.gait = next_gait(self.gait);
-                self.push(Entry::Command(MotionCommand::SwitchGait(self.gait)));
-            }
-            Button::Light => self.next_light(),
-            Button::Dock => self.dock(),
             Button::Cancel => {
                 // A task not yet sent needs no 1004, but one may run that this panel does not
                 // know of, and cancelling when none runs is harmless (the robot answers success).
-                self.queue.retain(|e| *e != Entry::Dock);
-                self.navigating = false;
-                self.push(Entry::Cancel);
+                self.task = Task::Idle;
+                self.cancel = Some(at);
             }
+            Button::StopStepping => {
+                self.push(OneShot::Command(MotionCommand::StopStepping), at);
+            }
+            Button::LieDown => {
+                self.push(OneShot::Command(MotionCommand::LieDown), at);
+            }
+            Button::Gait => match robot_gait {
+                Some(state) => {
+                    // A gait with no Command 20 value (accumulated frame) steps back to walk.
+                    let next = state
+                        .motion_gait()
+                        .map_or(MotionGait::Walk, MotionGait::next);
+                    self.push(OneShot::Command(MotionCommand::SwitchGait(next)), at);
+                }
+                None => self.refuse(button, "the robot's gait is not known"),
+            },
+            Button::Light => self.next_light(at),
+            Button::Dock => self.press_dock(at),
             Button::Forward
             | Button::Backward
             | Button::TurnLeft
             | Button::TurnRight
             | Button::StrafeLeft
-            | Button::StrafeRight => self.press_motion(button, now),
-            // Handled above, whether connected or not.
+            | Button::StrafeRight => self.press_motion(button, at),
+            // Handled above.
             Button::Estop => {}
         }
     }
 
-    /// The control connection to the robot went up or down.
-    pub fn link(&mut self, connected: bool) {
-        if connected != self.connected {
-            info!(
-                "control: robot {}",
-                if connected { "connected" } else { "lost" }
-            );
+    /// The command connection opened (`true`) or closed.
+    pub fn connection(&mut self, open: bool) {
+        if open == self.connected {
+            return;
         }
-        let was_connected = self.connected;
-        self.connected = connected;
-        if was_connected && !connected {
-            // The release that should stop the robot may be lost with the link. Zero
+        info!("control: robot {}", if open { "connected" } else { "lost" });
+        self.connected = open;
+        if open {
+            // A latched e-stop goes before anything else on the new connection.
+            self.estop.due = Instant::MIN;
+        } else if self.next_repeat.is_some() {
+            // The release that should stop the robot may be lost with the connection. Zero
             // velocity after the outage is no replayed press: stopping is always safe.
-            self.stop_on_reconnect |= self.next_repeat.is_some()
-                || self.queue.iter().any(|e| matches!(e, Entry::Motion(_)));
-            // Nothing is replayed after an outage, and held buttons need a new press.
-            self.queue.clear();
+            self.zero_velocity = true;
             self.end_motion();
-        }
-        if connected && core::mem::take(&mut self.stop_on_reconnect) {
-            self.push_motion(MotionCommand::ZeroVelocity);
         }
     }
 
-    /// The robot's motion state, from a readable status (not from an all-zero one, whose
-    /// "lying down" means nothing).
+    /// The robot's motion state from a readable status (not an all-zero one).
     pub fn robot_motion_state(&mut self, state: MotionState) {
-        self.robot_state = Some(state);
+        if !self.estop.latched {
+            return;
+        }
+        if state == MotionState::SoftEmergencyStop {
+            if !self.estop.confirmed {
+                info!("estop confirmed by the robot");
+            }
+            self.estop.confirmed = true;
+        } else if self.estop.confirmed {
+            self.estop.left = true;
+        }
         self.check_unlock();
     }
 
-    /// Whether a navigation task runs: set when the application starts one, cleared when
-    /// its answer arrives or its connection fails.
-    pub fn navigation(&mut self, running: bool) {
-        self.navigating = running;
-    }
-
-    /// The next action to carry out at `now`, if any: queued commands first (an e-stop is
-    /// always at the front), then the held motion button's repeat once it is due.
-    pub fn next_action(&mut self, now: Instant) -> Option<Action> {
-        if let Some(entry) = self.queue.pop_front() {
-            return Some(self.action(entry));
+    /// The next request for the command connection at `now`, if any; see the module docs
+    /// for the order. `motion_allowed` is false while the robot's answers are overdue:
+    /// motion due then is skipped, not sent late.
+    pub fn next_command(&mut self, now: Instant, motion_allowed: bool) -> Option<Request> {
+        if !self.connected {
+            return None;
         }
-        let due = self.next_repeat.filter(|&due| due <= now)?;
-        let command = self.held.last().and_then(|b| b.motion(&self.speeds))?;
-        self.next_repeat = Some(next_after(due, self.repeat, now));
-        trace!("repeat {:?}", command);
-        Some(Action::Send(Request::Motion(command)))
-    }
-
-    /// When [`Control::next_action`] next has something: a time in the past (at once) while
-    /// commands are queued, else the next repeat; `None` when idle.
-    pub fn next_deadline(&self) -> Option<Instant> {
-        if self.queue.is_empty() {
-            self.next_repeat
-        } else {
-            Some(Instant::MIN)
-        }
-    }
-
-    /// Reports the outcome of an action: `ok` when the robot answered success (see
-    /// [`succeeded`]), `false` on a failure answer, a timeout or a lost connection. Polls
-    /// are ignored; for a navigation task report its start, and its end again if it failed.
-    pub fn sent(&mut self, action: &Action, ok: bool, now: Instant) {
-        if !action.is_command() {
-            return;
-        }
-        if !ok {
-            warn!("command failed: {:?}", action);
-        }
+        let request = self.next_stop(now).or_else(|| {
+            self.next_motion(now, motion_allowed)
+                .or_else(|| self.next_one_shot(now))
+        })?;
         self.last_sent = Some(now);
+        Some(request)
+    }
+
+    /// A due stop: e-stop, zero velocity, or a fresh cancel.
+    fn next_stop(&mut self, now: Instant) -> Option<Request> {
+        if self.estop.unconfirmed() && self.estop.due <= now {
+            self.estop.due = now.saturating_add(ESTOP_REPEAT);
+            return Some(Request::Motion(MotionCommand::SoftEmergencyStop));
+        }
+        if core::mem::take(&mut self.zero_velocity) {
+            return Some(Request::Motion(MotionCommand::ZeroVelocity));
+        }
+        let pressed = self.cancel.take()?;
+        if self.fresh(pressed, now, "cancel") {
+            Some(Request::CancelNav)
+        } else {
+            None
+        }
+    }
+
+    /// The held motion button's command, if due and allowed.
+    fn next_motion(&mut self, now: Instant, motion_allowed: bool) -> Option<Request> {
+        let due = self.next_repeat.filter(|&due| due <= now)?;
+        self.next_repeat = Some(next_after(due, self.repeat, now));
+        if !motion_allowed || self.motion_locked() {
+            debug!("motion held back: the robot's answers are overdue");
+            return None;
+        }
+        let command = self.held.last().and_then(|b| b.motion(&self.speeds))?;
+        Some(Request::Motion(command))
+    }
+
+    /// The oldest fresh one-shot command; stale ones are dropped on the way.
+    fn next_one_shot(&mut self, now: Instant) -> Option<Request> {
+        while let Some((command, pressed)) = self.one_shots.pop_front() {
+            if self.fresh(pressed, now, "a press") {
+                return Some(match command {
+                    OneShot::Command(command) => Request::Motion(command),
+                    OneShot::Light(light) => Request::Light(light),
+                });
+            }
+        }
+        None
+    }
+
+    /// Whether a press at `pressed` may still go out at `now`; if not, it is dropped and
+    /// shown as failed.
+    fn fresh(&mut self, pressed: Instant, now: Instant, what: &str) -> bool {
+        let fresh = now.saturating_duration_since(pressed) <= STALE_PRESS;
+        if !fresh {
+            warn!(
+                "{} dropped: not sent within {} ms",
+                what,
+                STALE_PRESS.as_millis()
+            );
+            self.last_failed = true;
+        }
+        fresh
+    }
+
+    /// When [`Control::next_command`] next has something: a time at or before `now` while
+    /// something waits, else the next repeat or e-stop; `None` when idle or disconnected.
+    pub fn next_deadline(&self) -> Option<Instant> {
+        if !self.connected {
+            return None;
+        }
+        if self.zero_velocity || self.cancel.is_some() || !self.one_shots.is_empty() {
+            return Some(Instant::MIN);
+        }
+        let estop = self.estop.unconfirmed().then_some(self.estop.due);
+        [estop, self.next_repeat].into_iter().flatten().min()
+    }
+
+    /// A command's answer came (`ok`: it reports success) or never did (`ok` false).
+    pub fn command_answered(&mut self, ok: bool) {
         self.last_failed = !ok;
     }
 
-    /// When the last command was sent.
+    /// The ordered navigation task, for the navigation connection to send; `None` without
+    /// one, or when its press went stale (then dropped and shown as failed).
+    pub fn take_task(&mut self, now: Instant) -> Option<TaskOrder> {
+        let Task::Ordered { id, at } = self.task else {
+            return None;
+        };
+        if !self.fresh(at, now, "dock") {
+            self.task = Task::Idle;
+            return None;
+        }
+        let point = self.dock?;
+        Some(TaskOrder {
+            id,
+            task: NavTask::to_point(point),
+        })
+    }
+
+    /// Whether order `id` may still go out at `now`: not cancelled, overridden or stale.
+    /// Ask just before writing its 1003.
+    pub fn task_wanted(&mut self, id: u32, now: Instant) -> bool {
+        match self.task {
+            Task::Ordered { id: ordered, at } if ordered == id => {
+                if self.fresh(at, now, "dock") {
+                    true
+                } else {
+                    self.task = Task::Idle;
+                    false
+                }
+            }
+            _ => false,
+        }
+    }
+
+    /// Order `id`'s 1003 went out at `now`: the task runs until its answer. If a press
+    /// withdrew the order while the 1003 was being written, the task is cancelled at once.
+    pub fn task_started(&mut self, id: u32, now: Instant) {
+        if self.ordered(id) {
+            self.task = Task::Running { id };
+        } else {
+            warn!("navigation task withdrawn while its 1003 went out: cancelling it");
+            self.cancel = Some(now);
+        }
+    }
+
+    /// Order `id` ended: answered (`ok` if it succeeded or was cancelled) or lost with its
+    /// connection (`ok` false).
+    pub fn task_ended(&mut self, id: u32, ok: bool) {
+        if matches!(self.task, Task::Running { id: running } | Task::Ordered { id: running, .. } if running == id)
+        {
+            self.task = Task::Idle;
+        }
+        self.last_failed = !ok;
+    }
+
+    /// When the last command went out.
     pub fn last_sent(&self) -> Option<Instant> {
         self.last_sent
     }
 
-    /// Whether the last command failed.
+    /// Whether the last command failed or a press was dropped.
     pub fn last_failed(&self) -> bool {
         self.last_failed
     }
 
-    /// Whether a navigation task runs, as far as the panel knows.
+    /// Whether a navigation task runs or is about to start, as far as the panel knows.
     pub fn navigating(&self) -> bool {
-        self.navigating
+        self.task != Task::Idle
+    }
+
+    /// Whether order `id`'s task runs (its 1003 went out, and the panel still wants it).
+    pub fn task_running(&self, id: u32) -> bool {
+        self.task == Task::Running { id }
     }
 
     /// Whether motion is locked out by the e-stop.
     pub fn motion_locked(&self) -> bool {
-        self.estop_held || self.estop_latched
+        self.estop.held || self.estop.latched
+    }
+
+    /// Whether an e-stop is latched and not yet confirmed by the robot.
+    pub fn estop_unconfirmed(&self) -> bool {
+        self.estop.unconfirmed()
     }
 
     /// The motion button that drives the robot now, if any.
@@ -336,80 +483,93 @@ impl Control {
         self.held.last().copied()
     }
 
-    /// Whether the robot is connected, as last reported.
+    /// Whether the command connection is open, as last reported.
     pub fn connected(&self) -> bool {
         self.connected
     }
 
-    /// E-stop pressed: Command 13 before anything else, and nothing else that was waiting.
-    fn estop(&mut self) {
+    /// Whether order `id` waits to go out.
+    fn ordered(&self, id: u32) -> bool {
+        matches!(self.task, Task::Ordered { id: ordered, .. } if ordered == id)
+    }
+
+    /// E-stop pressed: latch, and drop everything that would move the robot.
+    fn press_estop(&mut self) {
+        info!("estop: latched until the robot confirms");
+        self.estop = Estop {
+            held: true,
+            latched: true,
+            confirmed: false,
+            left: false,
+            due: Instant::MIN,
+        };
+        self.end_motion();
+        self.one_shots.clear();
+        if matches!(self.task, Task::Ordered { .. }) {
+            self.task = Task::Idle;
+        }
+    }
+
+    /// Releases the e-stop lock-out once the button is up and the robot confirmed the stop
+    /// and then left it.
+    fn check_unlock(&mut self) {
+        let e = &self.estop;
+        if e.latched && !e.held && e.confirmed && e.left {
+            info!("estop released: motion allowed");
+            self.estop.latched = false;
+        }
+    }
+
+    /// A press that does nothing, shown on the fault LED.
+    fn refuse(&mut self, button: Button, reason: &str) {
+        warn!("{} refused: {}", button.name(), reason);
+        self.last_failed = true;
+    }
+
+    /// Ends the panel's navigation task at a press: an order not sent is withdrawn, a running
+    /// task is cancelled with a 1004.
+    fn end_task(&mut self, at: Instant) {
+        match self.task {
+            Task::Idle => {}
+            Task::Ordered { .. } => self.task = Task::Idle,
+            Task::Running { .. } => {
+                info!("cancelling the navigation task");
+                self.task = Task::Idle;
+                self.cancel = Some(at);
+            }
+        }
+    }
+
+    /// A motion button pressed: it drives from now on, after ending any navigation task.
+    fn press_motion(&mut self, button: Button, at: Instant) {
         if !self.connected {
-            warn!("estop dropped: robot not connected");
+            debug!("{} dropped: robot not connected", button.name());
             return;
         }
-        info!("estop: motion locked out");
-        self.queue.clear();
-        self.end_motion();
-        self.estop_latched = true;
-        self.robot_state = None;
-        // The queue was just emptied, so this cannot fail.
-        let _ = self
-            .queue
-            .push_front(Entry::Command(MotionCommand::SoftEmergencyStop));
-    }
-
-    /// Releases the e-stop lock-out once both conditions hold.
-    fn check_unlock(&mut self) {
-        let left_estop = self
-            .robot_state
-            .is_some_and(|s| s != MotionState::SoftEmergencyStop);
-        if self.estop_latched && !self.estop_held && left_estop {
-            info!("estop released: motion allowed");
-            self.estop_latched = false;
-        }
-    }
-
-    /// A motion button pressed: it drives from now on, after cancelling any navigation task.
-    fn press_motion(&mut self, button: Button, now: Instant) {
         if self.motion_locked() {
             debug!("{} dropped: motion locked out by estop", button.name());
             return;
         }
-        let Some(command) = button.motion(&self.speeds) else {
-            return;
-        };
-        let dock_queued = self.queue.iter().any(|e| *e == Entry::Dock);
-        if dock_queued {
-            self.queue.retain(|e| *e != Entry::Dock);
-        } else if self.navigating {
-            info!("{} cancels the navigation task", button.name());
-            self.push(Entry::Cancel);
-        }
-        self.navigating = false;
+        self.end_task(at);
         self.held.retain(|b| *b != button);
         // At most six motion buttons, and this one was just removed: there is room.
         let _ = self.held.push(button);
-        self.push_motion(command);
-        self.next_repeat = Some(now.saturating_add(self.repeat));
+        self.next_repeat = Some(at);
     }
 
     /// A motion button released: fall back to the latest other held one, or stop.
-    fn release(&mut self, button: Button, now: Instant) {
+    fn release(&mut self, button: Button, at: Instant) {
         let was_driving = self.held.last() == Some(&button);
         self.held.retain(|b| *b != button);
         if !was_driving {
             // Not held since an accepted press, or another button drives: nothing changes.
             return;
         }
-        match self.held.last().and_then(|b| b.motion(&self.speeds)) {
-            Some(command) => {
-                self.push_motion(command);
-                self.next_repeat = Some(now.saturating_add(self.repeat));
-            }
-            None => {
-                self.next_repeat = None;
-                self.push_motion(MotionCommand::ZeroVelocity);
-            }
+        if self.held.is_empty() {
+            self.next_repeat = None;
+            self.zero_velocity = true;
+        } else {
+            self.next_repeat = Some(at);
         }
     }
 
@@ -419,78 +579,53 @@ impl Control {
         self.next_repeat = None;
     }
 
-    /// `dock` pressed: start the navigation task, unless locked out or one already runs.
-    fn dock(&mut self) {
-        let refused = if self.motion_locked() {
-            Some("motion locked out by estop")
-        } else if self.navigating || self.queue.iter().any(|e| *e == Entry::Dock) {
-            Some("a navigation task already runs")
-        } else {
-            None
-        };
-        if let Some(reason) = refused {
-            debug!("dock dropped: {}", reason);
+    /// `dock` pressed: order the task to the charging point, unless none is configured,
+    /// motion is locked out or a task already runs.
+    fn press_dock(&mut self, at: Instant) {
+        if self.dock.is_none() {
+            return self.refuse(Button::Dock, "no charging point configured (X30_DOCK)");
+        }
+        if self.motion_locked() {
+            return self.refuse(Button::Dock, "motion locked out by estop");
+        }
+        if self.navigating() {
+            debug!("dock dropped: a navigation task already runs");
             return;
         }
         // The task drives the robot now; repeats would only be refused.
         self.end_motion();
-        self.queue.retain(|e| !matches!(e, Entry::Motion(_)));
-        self.push(Entry::Dock);
+        self.task_ids = self.task_ids.wrapping_add(1);
+        self.task = Task::Ordered {
+            id: self.task_ids,
+            at,
+        };
     }
 
-    /// `light` pressed: the next preset, wrapping round.
-    fn next_light(&mut self) {
+    /// `light` pressed: the next preset, wrapping round; the preset counts as sent only
+    /// once it is queued.
+    fn next_light(&mut self, at: Instant) {
         // `checked_rem` is `None` without presets, which configuration never allows.
         let Some(index) = (self.light + 1).checked_rem(self.lights.len()) else {
             return;
         };
-        if let Some(&light) = self.lights.get(index) {
+        if let Some(&light) = self.lights.get(index)
+            && self.push(OneShot::Light(light), at)
+        {
             self.light = index;
-            self.push(Entry::Light(light));
         }
     }
 
-    /// Queues what the held motion buttons ask for, replacing an older motion not yet sent.
-    fn push_motion(&mut self, command: MotionCommand) {
-        self.queue.retain(|e| !matches!(e, Entry::Motion(_)));
-        self.push(Entry::Motion(command));
-    }
-
-    /// Queues a command at the back; drops it when the queue is full.
-    fn push(&mut self, entry: Entry) {
-        if self.queue.push_back(entry).is_err() {
-            warn!("command dropped: queue full ({:?})", entry);
+    /// Queues a one-shot command; drops it (shown as failed) when the queue is full.
+    /// Whether it was queued.
+    fn push(&mut self, command: OneShot, at: Instant) -> bool {
+        let queued = self.one_shots.push_back((command, at)).is_ok();
+        if !queued {
+            warn!(
+                "press dropped: {} one-shot commands wait already",
+                ONE_SHOT_QUEUE
+            );
+            self.last_failed = true;
         }
-    }
-
-    /// Turns a queued entry into the action to carry out, noting what sending it implies.
-    fn action(&mut self, entry: Entry) -> Action {
-        match entry {
-            Entry::Motion(command) | Entry::Command(command) => {
-                if command == MotionCommand::SoftEmergencyStop {
-                    // Only states reported after Command 13 goes out can release the lock.
-                    self.robot_state = None;
-                }
-                Action::Send(Request::Motion(command))
-            }
-            Entry::Light(light) => Action::Send(Request::Light(light)),
-            Entry::Dock => {
-                // From here the task runs, so a motion press cancels it with a 1004.
-                self.navigating = true;
-                Action::Navigate(NavTask::to_point(self.dock))
-            }
-            Entry::Cancel => Action::CancelNavigation,
-        }
-    }
-}
-
-/// The gait after `gait` in the cycle walk (0) → normal stairs (1) → slope (2) →
-/// perception stairs (4) → walk.
-fn next_gait(gait: MotionGait) -> MotionGait {
-    match gait {
-        MotionGait::Walk => MotionGait::NormalStairs,
-        MotionGait::NormalStairs => MotionGait::Slope,
-        MotionGait::Slope => MotionGait::PerceptionStairs,
-        _ => MotionGait::Walk,
+        queued
     }
 }

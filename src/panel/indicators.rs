@@ -4,8 +4,9 @@
 //! and the time, so the application recomputes them whenever anything changed and sets the
 //! LEDs that differ; nothing here remembers a previous state.
 //!
-//! - **link** (green): off without a network, blinking while connecting to the robot, on when
-//!   connected and the status is readable (blinking again while connected but unreadable).
+//! - **link** (green): off without a network, blinking while connecting to the robot,
+//!   blinking fast while connected but the robot does not answer (answers overdue, or no
+//!   fresh status), on when connected and answering.
 //! - **activity** (blue): on for [`FLASH`] after each command, steady while a navigation task
 //!   runs.
 //! - **fault** (red): on while the robot reports a [`Fault`]; otherwise blinking when the
@@ -25,6 +26,9 @@ pub const LOW_BATTERY_PERCENT: i32 = 20;
 /// Half the period of a blinking LED: on this long, then off this long (2 Hz).
 pub const BLINK_HALF_PERIOD: Duration = Duration::from_millis(250);
 
+/// Half the period of a fast-blinking LED (8 Hz): clearly not the 2 Hz blink.
+pub const FAST_BLINK_HALF_PERIOD: Duration = Duration::from_millis(62);
+
 /// What one LED shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -35,15 +39,21 @@ pub enum Led {
     On,
     /// Blinking at 2 Hz.
     Blink,
+    /// Blinking at 8 Hz.
+    BlinkFast,
 }
 
 impl Led {
-    /// `off`, `on` or `blink`, as the virtual panel logs it.
+    /// Every state an LED can show.
+    pub const ALL: [Led; 4] = [Self::Off, Self::On, Self::Blink, Self::BlinkFast];
+
+    /// `off`, `on`, `blink` or `blink-fast`, as the virtual panel logs it.
     pub const fn name(self) -> &'static str {
         match self {
             Self::Off => "off",
             Self::On => "on",
             Self::Blink => "blink",
+            Self::BlinkFast => "blink-fast",
         }
     }
 
@@ -52,9 +62,15 @@ impl Led {
         match self {
             Self::Off => false,
             Self::On => true,
-            Self::Blink => (now.as_ticks() / BLINK_HALF_PERIOD.as_ticks().max(1)).is_multiple_of(2),
+            Self::Blink => lit_half(BLINK_HALF_PERIOD, now),
+            Self::BlinkFast => lit_half(FAST_BLINK_HALF_PERIOD, now),
         }
     }
+}
+
+/// Whether `now` falls in the lit half of a blink whose halves last `half`.
+fn lit_half(half: Duration, now: Instant) -> bool {
+    (now.as_ticks() / half.as_ticks().max(1)).is_multiple_of(2)
 }
 
 /// How far the connection to the robot is.
@@ -65,7 +81,9 @@ pub enum LinkState {
     NoNetwork,
     /// The board has a network and is connecting to the robot.
     Connecting,
-    /// The control connection to the robot is up.
+    /// Connected, but the robot's answers are overdue: it may have gone silent.
+    NotAnswering,
+    /// Connected to the robot.
     Connected,
 }
 
@@ -130,9 +148,10 @@ pub fn fault(view: &RobotView, now: Instant) -> Option<Fault> {
 pub fn link_led(link: LinkState, view: &RobotView, now: Instant) -> Led {
     match link {
         LinkState::NoNetwork => Led::Off,
-        LinkState::Connected if view.status_readable(now) => Led::On,
-        // Connected but the status cannot be read is not the full link yet.
-        LinkState::Connecting | LinkState::Connected => Led::Blink,
+        LinkState::Connecting => Led::Blink,
+        // Connected with no fresh status is a robot that does not answer its polls.
+        LinkState::Connected if view.status_fresh(now) => Led::On,
+        LinkState::Connected | LinkState::NotAnswering => Led::BlinkFast,
     }
 }
 
@@ -155,7 +174,8 @@ pub fn fault_led(
     now: Instant,
 ) -> Led {
     // Without a connection the link LED already says why nothing can be read.
-    let unreadable = link == LinkState::Connected && !view.status_readable(now);
+    let unreadable = matches!(link, LinkState::Connected | LinkState::NotAnswering)
+        && !view.status_readable(now);
     if fault(view, now).is_some() {
         Led::On
     } else if unreadable || last_command_failed {

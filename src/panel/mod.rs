@@ -4,8 +4,8 @@
 //!
 //! - [`buttons`]: the fourteen [`Button`]s and a [`Debouncer`] that turns raw pin levels into
 //!   one press and one release per push.
-//! - [`control`]: [`Control`] turns presses and releases into [`Action`]s (commands to send),
-//!   with motion repeats, e-stop priority and lock-out, and navigation cancelling.
+//! - [`control`]: [`Control`] turns presses and releases into commands and navigation
+//!   tasks, with stops first, the e-stop latch, motion repeats and nothing sent late.
 //! - [`monitor`]: [`Monitor`] schedules the polls of the robot's state, and [`RobotView`]
 //!   keeps the latest answers with their age.
 //! - [`indicators`]: the three [`Led`]s, as pure functions of the above.
@@ -22,14 +22,15 @@ pub mod monitor;
 pub mod virtual_panel;
 
 pub use buttons::{Button, ButtonDebouncers, ButtonEvent, Debouncer};
-pub use control::{Action, Control, succeeded};
+pub use control::{Control, STALE_PRESS, TaskOrder, succeeded};
 pub use indicators::{Fault, Indicators, Led, LinkState};
 pub use monitor::{Monitor, RobotView, Stamped};
 
 use embassy_time::{Duration, Instant};
 
+use crate::client::ClientError;
 use crate::config::Config;
-use crate::proto::message::Response;
+use crate::proto::message::{NavResult, Request, Response};
 
 /// The next deadline of a periodic job that ran at `now` for the deadline `due`: one period
 /// after `due`, so late wake-ups do not slow the rate down, but never at or before `now`, so
@@ -43,12 +44,36 @@ pub(crate) fn next_after(due: Instant, period: Duration, now: Instant) -> Instan
     }
 }
 
+/// The panel's connections to the robot, each with one job.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Connection {
+    /// Commands, written without waiting for earlier answers.
+    Commands,
+    /// Polls of the robot's state, one at a time.
+    Polls,
+    /// The navigation task's 1003, held open until its answer.
+    Navigation,
+}
+
+/// How one connection to the robot is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ConnectionState {
+    /// Not open: connecting, or waiting to try again.
+    Connecting,
+    /// Open, and the robot answers.
+    Open,
+    /// Open, but the robot's answers are overdue.
+    NotAnswering,
+}
+
 /// The whole panel: control, monitor, robot view and indicators, kept in step.
 ///
-/// The application's loop: feed it button events, link changes and answers as they come;
-/// send what [`Panel::next_action`] returns until it returns `None` (commands come before
-/// polls), reporting each outcome with [`Panel::sent`]; set the LEDs from
-/// [`Panel::indicators`]; then wait for the next event or [`Panel::next_deadline`].
+/// The application feeds it button events, connection changes and answers as they come;
+/// writes what [`Panel::next_command`] returns on the command connection and what
+/// [`Panel::next_poll`] returns on the poll connection; runs the tasks of
+/// [`Panel::take_task`]; and sets the LEDs from [`Panel::indicators`].
 #[derive(Debug, Clone)]
 pub struct Panel {
     /// Commands from buttons.
@@ -57,70 +82,137 @@ pub struct Panel {
     monitor: Monitor,
     /// The robot's latest answers.
     view: RobotView,
-    /// How far the connection to the robot is.
-    link: LinkState,
+    /// Whether the board has a network.
+    network: bool,
+    /// The command connection.
+    commands: ConnectionState,
+    /// The poll connection.
+    polls: ConnectionState,
 }
 
 impl Panel {
-    /// A panel with `config`, not yet connected.
+    /// A panel with `config`, without a network yet.
     pub fn new(config: &Config) -> Self {
         Self {
             control: Control::new(config),
             monitor: Monitor::new(config),
             view: RobotView::new(config),
-            link: LinkState::NoNetwork,
+            network: false,
+            commands: ConnectionState::Connecting,
+            polls: ConnectionState::Connecting,
         }
     }
 
     /// A debounced press or release.
-    pub fn button(&mut self, button: Button, pressed: bool, now: Instant) {
-        self.control.button(button, pressed, now);
+    pub fn button(&mut self, event: ButtonEvent) {
+        let gait = self.view.status(event.at).map(|s| s.gait_state);
+        self.control.button(event, gait);
+        self.monitor.navigation(self.control.navigating(), event.at);
     }
 
-    /// The connection to the robot changed.
-    pub fn link(&mut self, link: LinkState, now: Instant) {
-        let connected = link == LinkState::Connected;
-        self.link = link;
-        self.control.link(connected);
-        self.monitor.link(connected, now);
+    /// The board's network came up or went down.
+    pub fn network(&mut self, up: bool) {
+        self.network = up;
     }
 
-    /// A navigation task started (its 1003 went out) or ended (its answer came, or its
-    /// connection failed).
-    pub fn navigation(&mut self, running: bool, now: Instant) {
-        self.control.navigation(running);
-        self.monitor.navigation(running, now);
+    /// A connection to the robot is in `state`; whether that is a change.
+    pub fn connection(
+        &mut self,
+        connection: Connection,
+        state: ConnectionState,
+        now: Instant,
+    ) -> bool {
+        let open = state != ConnectionState::Connecting;
+        let was = match connection {
+            Connection::Commands => {
+                self.control.connection(open);
+                core::mem::replace(&mut self.commands, state)
+            }
+            Connection::Polls => {
+                self.monitor.link(open, now);
+                core::mem::replace(&mut self.polls, state)
+            }
+            // Its loss ends the task, which the application reports with `task_ended`.
+            Connection::Navigation => state,
+        };
+        was != state
     }
 
-    /// The next thing to send at `now`: a command if one is waiting, else a due poll.
-    pub fn next_action(&mut self, now: Instant) -> Option<Action> {
-        if let Some(action) = self.control.next_action(now) {
-            // A dock or cancel changes whether a task runs; the 1007 polls follow.
-            self.monitor.navigation(self.control.navigating(), now);
-            return Some(action);
+    /// The next request for the command connection (see [`Control::next_command`]).
+    pub fn next_command(&mut self, now: Instant, motion_allowed: bool) -> Option<Request> {
+        let request = self.control.next_command(now, motion_allowed);
+        // A stop or motion press may have ended the navigation task.
+        self.monitor.navigation(self.control.navigating(), now);
+        request
+    }
+
+    /// A command's answer, or why there is none (timeout, connection lost, Type 0).
+    pub fn command_answered(&mut self, answer: Result<&Response, &ClientError>) {
+        let ok = answer.is_ok_and(succeeded);
+        if let Err(e) = answer {
+            warn!("command failed: {:?}", e);
+        } else if !ok {
+            warn!("command refused by the robot");
         }
-        self.monitor.next_poll(now).map(Action::Send)
+        self.control.command_answered(ok);
     }
 
-    /// Reports an action's outcome (see [`Control::sent`]).
-    pub fn sent(&mut self, action: &Action, ok: bool, now: Instant) {
-        self.control.sent(action, ok, now);
+    /// The next poll due at `now` on the poll connection.
+    pub fn next_poll(&mut self, now: Instant) -> Option<Request> {
+        self.monitor.next_poll(now)
     }
 
-    /// An answer from the robot arrived at `now`.
-    pub fn response(&mut self, response: &Response, now: Instant) {
+    /// A poll's answer arrived at `now`.
+    pub fn poll_answered(&mut self, response: &Response, now: Instant) {
         self.view.update(response, now);
-        match response {
-            // An all-zero status says nothing about the motion state.
-            Response::Status(status) if !status.is_unavailable() => {
-                self.control.robot_motion_state(status.motion_state);
-            }
-            Response::NavResult(result) => {
-                info!("navigation task ended: {}", result.outcome.description());
-                self.navigation(false, now);
-            }
-            _ => {}
+        // An all-zero status says nothing about the motion state.
+        if let Response::Status(status) = response
+            && !status.is_unavailable()
+        {
+            self.control.robot_motion_state(status.motion_state);
         }
+    }
+
+    /// The navigation task to start, if a fresh press ordered one (see [`Control::take_task`]).
+    pub fn take_task(&mut self, now: Instant) -> Option<TaskOrder> {
+        let order = self.control.take_task(now);
+        // A stale order was dropped: its 1007 polls end with it.
+        self.monitor.navigation(self.control.navigating(), now);
+        order
+    }
+
+    /// Whether order `id` may still go out (see [`Control::task_wanted`]).
+    pub fn task_wanted(&mut self, id: u32, now: Instant) -> bool {
+        let wanted = self.control.task_wanted(id, now);
+        self.monitor.navigation(self.control.navigating(), now);
+        wanted
+    }
+
+    /// Order `id`'s 1003 went out at `now`.
+    pub fn task_started(&mut self, id: u32, now: Instant) {
+        self.control.task_started(id, now);
+        self.monitor.navigation(self.control.navigating(), now);
+    }
+
+    /// Order `id` ended: its answer, or why there is none.
+    pub fn task_ended(&mut self, id: u32, end: Result<&NavResult, &ClientError>, now: Instant) {
+        let ok = match end {
+            Ok(result) => {
+                info!(
+                    "navigation task ended: {} ({})",
+                    result.outcome.description(),
+                    result.status.description()
+                );
+                self.view.update(&Response::NavResult(*result), now);
+                succeeded(&Response::NavResult(*result))
+            }
+            Err(e) => {
+                warn!("navigation task lost: {:?}", e);
+                false
+            }
+        };
+        self.control.task_ended(id, ok);
+        self.monitor.navigation(self.control.navigating(), now);
     }
 
     /// The LEDs at `now`.
@@ -128,17 +220,19 @@ impl Panel {
         Indicators::derive(&self.indicator_inputs(), now)
     }
 
-    /// When the panel next has something to do without a new event: an action or poll due,
-    /// or an LED about to change. A time at or before `now` means at once.
-    pub fn next_deadline(&self, now: Instant) -> Option<Instant> {
-        [
-            self.control.next_deadline(),
-            self.monitor.next_deadline(),
-            Indicators::next_change(&self.indicator_inputs(), now),
-        ]
-        .into_iter()
-        .flatten()
-        .min()
+    /// When the LEDs may next change without a new event.
+    pub fn indicators_deadline(&self, now: Instant) -> Option<Instant> {
+        Indicators::next_change(&self.indicator_inputs(), now)
+    }
+
+    /// When the command connection next has something to send without a new event.
+    pub fn command_deadline(&self) -> Option<Instant> {
+        self.control.next_deadline()
+    }
+
+    /// When the next poll is due.
+    pub fn poll_deadline(&self) -> Option<Instant> {
+        self.monitor.next_deadline()
     }
 
     /// The control state machine.
@@ -156,15 +250,24 @@ impl Panel {
         &self.view
     }
 
-    /// How far the connection to the robot is.
+    /// What the link LED shows, from the network and the command and poll connections.
     pub fn link_state(&self) -> LinkState {
-        self.link
+        use ConnectionState::{Connecting, NotAnswering};
+        if !self.network {
+            LinkState::NoNetwork
+        } else if self.commands == Connecting || self.polls == Connecting {
+            LinkState::Connecting
+        } else if self.commands == NotAnswering || self.polls == NotAnswering {
+            LinkState::NotAnswering
+        } else {
+            LinkState::Connected
+        }
     }
 
     /// What the LEDs depend on.
     fn indicator_inputs(&self) -> indicators::Inputs<'_> {
         indicators::Inputs {
-            link: self.link,
+            link: self.link_state(),
             view: &self.view,
             navigating: self.control.navigating(),
             last_sent: self.control.last_sent(),

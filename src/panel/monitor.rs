@@ -3,9 +3,8 @@
 //! [`Monitor`] decides when to ask the robot for its state: status (1002) and perception
 //! (2002) every 500 ms, battery (2001) every 5 s, motor temperatures (1008) every 10 s, and
 //! the navigation-task status (1007) every second while a task runs (DESIGN.md "Monitor").
-//! The polls share the control connection with commands, and commands go first: the
-//! application asks [`Control`](super::control::Control) for an action before it asks the
-//! monitor for a poll.
+//! The polls have a connection of their own, so that a robot slow to answer them never
+//! holds a command back.
 //!
 //! [`RobotView`] keeps the latest answer of each kind with the time it arrived. An answer
 //! older than four poll periods is stale and reads as absent, so the indicators never show a
@@ -219,6 +218,12 @@ impl RobotView {
     /// The status if it is readable at `now`: fresh, and not the all-zero "unavailable" one.
     pub fn status(&self, now: Instant) -> Option<&RobotStatus> {
         fresh(&self.status, self.polls.status, now).filter(|s| !s.is_unavailable())
+    }
+
+    /// Whether a status, even an all-zero one, arrived recently enough at `now`: the robot
+    /// answers its polls.
+    pub fn status_fresh(&self, now: Instant) -> bool {
+        fresh(&self.status, self.polls.status, now).is_some()
     }
 
     /// Whether the status is readable at `now` (see [`RobotView::status`]).

@@ -6,6 +6,7 @@
 //! Anything else is an error the board reports, never a panic; a line longer than
 //! [`MAX_LINE`] is skipped to its end.
 
+use embassy_time::Instant;
 use heapless::{String, Vec};
 
 use super::buttons::{Button, ButtonEvent};
@@ -40,8 +41,9 @@ impl core::fmt::Display for LineError {
 
 impl core::error::Error for LineError {}
 
-/// What one line says: a button change, nothing (a blank line), or why it is not valid.
-pub fn parse_line(line: &str) -> Result<Option<ButtonEvent>, LineError> {
+/// What one line, received at `at`, says: a button change, nothing (a blank line), or why
+/// it is not valid.
+pub fn parse_line(line: &str, at: Instant) -> Result<Option<ButtonEvent>, LineError> {
     let line = line.trim();
     let pressed = match line.as_bytes().first() {
         None => return Ok(None),
@@ -51,7 +53,11 @@ pub fn parse_line(line: &str) -> Result<Option<ButtonEvent>, LineError> {
     };
     let name = line.get(1..).unwrap_or_default().trim();
     match Button::from_name(name) {
-        Some(button) => Ok(Some(ButtonEvent { button, pressed })),
+        Some(button) => Ok(Some(ButtonEvent {
+            button,
+            pressed,
+            at,
+        })),
         None => Err(LineError::UnknownButton(truncated(name))),
     }
 }
@@ -85,8 +91,12 @@ impl LineReader {
         }
     }
 
-    /// Takes one byte; at the end of a line, returns what the line said.
-    pub fn push(&mut self, byte: u8) -> Option<Result<Option<ButtonEvent>, LineError>> {
+    /// Takes one byte, received at `now`; at the end of a line, returns what the line said.
+    pub fn push(
+        &mut self,
+        byte: u8,
+        now: Instant,
+    ) -> Option<Result<Option<ButtonEvent>, LineError>> {
         if byte != b'\n' && byte != b'\r' {
             if self.line.push(byte).is_err() {
                 self.too_long = true;
@@ -97,7 +107,7 @@ impl LineReader {
             Err(LineError::TooLong)
         } else {
             match core::str::from_utf8(&self.line) {
-                Ok(text) => parse_line(text),
+                Ok(text) => parse_line(text, now),
                 Err(_) => Err(LineError::NotText),
             }
         };

@@ -241,6 +241,62 @@ coded_enum! {
     }
 }
 
+impl GaitState {
+    /// The Command 20 gait that switches to this state, if there is one: the status and
+    /// Command 20 number the same gaits differently (perception stairs is 6 here, 4 there),
+    /// and the accumulated-frame gaits have no Command 20 value.
+    pub const fn motion_gait(self) -> Option<MotionGait> {
+        match self {
+            Self::Walk => Some(MotionGait::Walk),
+            // The document's "obstacle-crossing (blind)" is Command 20's "normal stairs".
+            Self::ObstacleCrossing => Some(MotionGait::NormalStairs),
+            Self::Slope => Some(MotionGait::Slope),
+            Self::PerceptionStairs => Some(MotionGait::PerceptionStairs),
+            _ => None,
+        }
+    }
+}
+
+impl MotionGait {
+    /// The gait after this one in the panel's cycle: walk → normal stairs → slope →
+    /// perception stairs → walk.
+    pub const fn next(self) -> Self {
+        match self {
+            Self::Walk => Self::NormalStairs,
+            Self::NormalStairs => Self::Slope,
+            Self::Slope => Self::PerceptionStairs,
+            _ => Self::Walk,
+        }
+    }
+
+    /// The status's `GaitState` once the robot has switched to this gait.
+    pub const fn gait_state(self) -> GaitState {
+        match self {
+            Self::Walk => GaitState::Walk,
+            Self::NormalStairs => GaitState::ObstacleCrossing,
+            Self::Slope => GaitState::Slope,
+            Self::PerceptionStairs => GaitState::PerceptionStairs,
+            Self::Unknown(raw) => GaitState::Unknown(raw),
+        }
+    }
+}
+
+impl NavGait {
+    /// The status's `GaitState` for this navigation gait (the two numberings differ from
+    /// perception stairs on).
+    pub const fn gait_state(self) -> GaitState {
+        match self {
+            Self::Walk => GaitState::Walk,
+            Self::ObstacleCrossing => GaitState::ObstacleCrossing,
+            Self::Slope => GaitState::Slope,
+            Self::PerceptionStairs => GaitState::PerceptionStairs,
+            Self::AccumulatedFrameStairs => GaitState::AccumulatedFrameStairs,
+            Self::AccumulatedFrameStairs45 => GaitState::AccumulatedFrameStairs45,
+            Self::Unknown(raw) => GaitState::Unknown(raw),
+        }
+    }
+}
+
 coded_enum! {
     /// `PointInfo` item of the Type 1003 navigation-task request: what the target point is.
     pub enum PointInfo {

@@ -4,6 +4,7 @@
 //! - [`xml`]: a fixed-buffer XML writer, a minimal tokenizer, and number text.
 //! - [`codes`]: every coded value of the protocol, each with an `Unknown(raw)` case.
 //! - [`message`]: typed requests and responses for every Type, in both directions.
+//! - [`outstanding`]: which request an answer answers (by message ID; Type 0 to the oldest).
 //!
 //! Nothing here does I/O, allocates, or panics: every fallible function returns its own
 //! error enum and writes into buffers the caller owns.
@@ -12,5 +13,6 @@ pub mod codes;
 mod display;
 pub mod frame;
 pub mod message;
+pub mod outstanding;
 pub mod time;
 pub mod xml;

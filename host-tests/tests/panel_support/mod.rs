@@ -1,58 +1,103 @@
-//! Shared helpers of the panel tests: simulated time, a status answer, and a loop that pulls
-//! actions the way the application does.
+//! Shared helpers of the panel tests: simulated time, button events, a loop that pulls
+//! commands the way the application does, and healthy answers of the robot.
 
 // Each test file uses some of these helpers.
 #![allow(dead_code)]
 
 use embassy_time::Instant;
-use x30_panel::config::Config;
-use x30_panel::panel::{Action, Control};
+use x30_panel::config::{Config, parse_dock};
+use x30_panel::panel::{Button, ButtonEvent, Control, Panel};
 use x30_panel::proto::codes::*;
-use x30_panel::proto::message::{Battery, MotionCommand, Request, RobotStatus};
+use x30_panel::proto::message::{Battery, Request, RobotStatus};
 
 /// The instant `ms` milliseconds after boot.
 pub fn at(ms: u64) -> Instant {
     Instant::from_millis(ms)
 }
 
-/// A control state machine with the default configuration, connected.
+/// `button` pressed (`true`) or released at `ms`.
+pub fn event(button: Button, pressed: bool, ms: u64) -> ButtonEvent {
+    ButtonEvent {
+        button,
+        pressed,
+        at: at(ms),
+    }
+}
+
+/// Presses and releases, for [`Control`] (which the robot's gait is not known to) and
+/// [`Panel`].
+pub trait Buttons {
+    /// A debounced change of `button` at `ms`.
+    fn change(&mut self, button: Button, pressed: bool, ms: u64);
+
+    /// `button` pressed at `ms`.
+    fn press(&mut self, button: Button, ms: u64) {
+        self.change(button, true, ms);
+    }
+
+    /// `button` released at `ms`.
+    fn release(&mut self, button: Button, ms: u64) {
+        self.change(button, false, ms);
+    }
+}
+
+impl Buttons for Control {
+    fn change(&mut self, button: Button, pressed: bool, ms: u64) {
+        self.button(event(button, pressed, ms), None);
+    }
+}
+
+impl Buttons for Panel {
+    fn change(&mut self, button: Button, pressed: bool, ms: u64) {
+        self.button(event(button, pressed, ms));
+    }
+}
+
+/// A configuration whose `dock` goes to charging point 5 of map 2.
+pub fn with_dock() -> Config {
+    let mut config = Config::default();
+    config.dock = parse_dock("5,2,1.5,2.5,0,1");
+    config
+}
+
+/// A control state machine with the default configuration, its command connection open.
 pub fn connected() -> Control {
     connected_with(&Config::default())
 }
 
-/// A control state machine with `config`, connected.
+/// A control state machine with `config`, its command connection open.
 pub fn connected_with(config: &Config) -> Control {
     let mut control = Control::new(config);
-    control.link(true);
+    control.connection(true);
     control
 }
 
-/// The motion command an action sends, if it sends one.
-pub fn motion(action: &Action) -> Option<MotionCommand> {
-    match action {
-        Action::Send(Request::Motion(command)) => Some(*command),
-        _ => None,
-    }
-}
-
-/// Every action due at `now`.
-pub fn drain(control: &mut Control, now: Instant) -> Vec<Action> {
-    std::iter::from_fn(|| control.next_action(now)).collect()
+/// Every command due at `now`, with motion allowed.
+pub fn drain(control: &mut Control, now: Instant) -> Vec<Request> {
+    std::iter::from_fn(|| control.next_command(now, true)).collect()
 }
 
 /// Runs the control state machine from `from` to `to` inclusive as the application does:
-/// pull everything due, then wake up at the next deadline. Returns each action with the time
-/// it was pulled.
-pub fn run(control: &mut Control, from: Instant, to: Instant) -> Vec<(Instant, Action)> {
+/// pull everything due, then wake up at the next deadline. Returns each command with the
+/// time it was pulled.
+pub fn run(control: &mut Control, from: Instant, to: Instant) -> Vec<(Instant, Request)> {
     let mut out = Vec::new();
     let mut now = from;
     loop {
-        out.extend(drain(control, now).into_iter().map(|a| (now, a)));
+        out.extend(drain(control, now).into_iter().map(|r| (now, r)));
         match control.next_deadline() {
             Some(next) if next <= to => now = next.max(now),
             _ => return out,
         }
     }
+}
+
+/// The times in milliseconds at which `request` went out in a [`run`].
+pub fn times_of(sent: &[(Instant, Request)], request: &Request) -> Vec<u64> {
+    sent.iter()
+        .filter(|(_, r)| r == request)
+        .map(|(t, _)| t.as_millis())
+        .collect()
 }
 
 /// A readable status of a robot stepping in the middle of its map with 80 % battery.
@@ -79,6 +124,14 @@ pub fn status() -> RobotStatus {
         charge_state: ChargeState::NotCharging,
         control_mode: ControlMode::Manual,
         on_dock_state: OnDockState::OffDock,
+    }
+}
+
+/// [`status`] with another motion state.
+pub fn status_in(motion_state: MotionState) -> RobotStatus {
+    RobotStatus {
+        motion_state,
+        ..status()
     }
 }
 

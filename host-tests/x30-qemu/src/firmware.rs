@@ -10,6 +10,11 @@ pub const BOARD_FEATURE: &str = "board-qemu-mps2-an386";
 /// The firmware's binary target.
 const BIN: &str = "x30-panel";
 
+/// The charging point the virtual panel's `dock` button walks to, unless `X30_DOCK` is set:
+/// 5 m ahead of the simulator's start, far enough that a task is still running a few
+/// seconds later. The firmware itself has no default point (no place is safe to assume).
+pub const DEMO_DOCK: &str = "1,1,5.0,0,0,0";
+
 /// The repository root (the firmware crate), as it was when x30-qemu was compiled: two
 /// levels above this crate.
 pub fn repository_root() -> PathBuf {
@@ -32,6 +37,10 @@ pub fn build(root: &Path) -> Result<PathBuf, String> {
         .args(["build", "--release", "--no-default-features", "--features"])
         .arg(BOARD_FEATURE)
         .args(["--bin", BIN, "--message-format=json-render-diagnostics"])
+        .env(
+            "X30_DOCK",
+            std::env::var("X30_DOCK").unwrap_or_else(|_| DEMO_DOCK.into()),
+        )
         .arg("--manifest-path")
         .arg(&manifest)
         .stdin(Stdio::null())

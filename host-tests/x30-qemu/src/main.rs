@@ -39,7 +39,7 @@ const SETUP_FAILURE: u8 = 2;
 /// `send TEXT` sends TEXT to the UART as it is; `# ...` and blank lines are ignored. At the
 /// end of input the firmware runs on for --grace-ms, then QEMU is stopped.
 ///
-/// Standard output is what the firmware prints (`led NAME on|off|blink`, commands sent,
+/// Standard output is what the firmware prints (`led NAME on|off|blink|blink-fast`, commands sent,
 /// connection state, `panic: ...`); x30-qemu's own messages go to standard error.
 ///
 /// Exit status: 0 clean run; 1 firmware panic, QEMU failure, `wait` timed out or invalid

@@ -13,13 +13,15 @@
 use std::fmt;
 use std::time::Duration;
 
-use x30_panel::panel::buttons::Button;
+use x30_panel::panel::{self, buttons::Button};
 
 /// The LEDs of the panel, by the names the firmware logs.
 pub const LED_NAMES: [&str; 3] = ["link", "activity", "fault"];
 
-/// The states an LED can be logged in.
-pub const LED_STATES: [&str; 3] = ["on", "off", "blink"];
+/// Whether `state` is a state an LED can be logged in (`on`, `off`, `blink`, …).
+fn is_led_state(state: &str) -> bool {
+    panel::Led::ALL.iter().any(|led| led.name() == state)
+}
 
 /// One thing a script line asks for.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -51,12 +53,12 @@ impl fmt::Display for Pattern {
     }
 }
 
-/// An LED state change as the firmware logs it: `led NAME on|off|blink`.
+/// An LED state change as the firmware logs it: `led NAME on|off|blink|blink-fast`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Led {
     /// `link`, `activity` or `fault`.
     pub name: String,
-    /// `on`, `off` or `blink`.
+    /// `on`, `off`, `blink` or `blink-fast`.
     pub state: String,
 }
 
@@ -109,12 +111,10 @@ pub fn parse(line: &str) -> Result<Option<Step>, String> {
 pub fn led_in(line: &str) -> Option<Led> {
     let words: Vec<&str> = line.split_whitespace().collect();
     words.windows(3).find_map(|w| match w {
-        ["led", name, state] if LED_NAMES.contains(name) && LED_STATES.contains(state) => {
-            Some(Led {
-                name: (*name).to_owned(),
-                state: (*state).to_owned(),
-            })
-        }
+        ["led", name, state] if LED_NAMES.contains(name) && is_led_state(state) => Some(Led {
+            name: (*name).to_owned(),
+            state: (*state).to_owned(),
+        }),
         _ => None,
     })
 }
@@ -203,6 +203,7 @@ mod tests {
         };
         assert_eq!(led_in("led link on"), led("link", "on"));
         assert_eq!(led_in("0.512 INFO led fault blink"), led("fault", "blink"));
+        assert_eq!(led_in("led link blink-fast"), led("link", "blink-fast"));
         assert_eq!(led_in("led activity off\r"), led("activity", "off"));
         assert_eq!(led_in("led power on"), None);
         assert_eq!(led_in("led link dim"), None);

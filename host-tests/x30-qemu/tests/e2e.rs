@@ -9,125 +9,12 @@
 
 mod common;
 
-use std::io::Write;
-use std::path::PathBuf;
-use std::process::Command;
-use std::sync::{Mutex, MutexGuard, OnceLock};
 use std::thread::sleep;
 use std::time::{Duration, Instant};
 
 use common::*;
 use x30_panel::proto::codes::{ErrorStatus, MotionState, NavOutcome};
-use x30_sim::{Config, Pose, Simulator};
-
-/// Longest the firmware may take from QEMU's start to `led link on` (DHCP, then TCP).
-const BOOT_LIMIT: Duration = Duration::from_secs(45);
-
-/// Longest one x30-qemu run may last; x30-qemu enforces it too (`--timeout-s`).
-const SESSION_LIMIT: Duration = Duration::from_secs(75);
-
-/// Longest anything asked of the panel may take to show at the robot.
-const REACTION: Duration = Duration::from_secs(10);
-
-/// The firmware ELF, built on first use; the error if it does not build. `X30_QEMU_FIRMWARE`
-/// names a ready ELF instead (one built elsewhere, such as another worktree).
-fn firmware() -> &'static Result<PathBuf, String> {
-    static ELF: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    ELF.get_or_init(|| {
-        if let Some(elf) = std::env::var_os("X30_QEMU_FIRMWARE") {
-            return Ok(PathBuf::from(elf));
-        }
-        let started = Instant::now();
-        let out = Command::new(BIN)
-            .arg("--build-only")
-            .output()
-            .map_err(|e| format!("cannot run x30-qemu --build-only: {e}"))?;
-        if !out.status.success() {
-            return Err(format!(
-                "x30-qemu --build-only failed ({})\n{}",
-                out.status,
-                String::from_utf8_lossy(&out.stderr)
-            ));
-        }
-        let elf = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim());
-        eprintln!(
-            "firmware {} ready in {:?}",
-            elf.display(),
-            started.elapsed()
-        );
-        Ok(elf)
-    })
-}
-
-/// Whether QEMU's Arm system emulator is on PATH.
-fn have_qemu() -> bool {
-    std::env::var_os("PATH").is_some_and(|path| {
-        std::env::split_paths(&path).any(|dir| dir.join("qemu-system-arm").is_file())
-    })
-}
-
-/// What every test holds while it runs: the turn to run QEMU, and the firmware.
-struct Turn {
-    _guard: MutexGuard<'static, ()>,
-    elf: PathBuf,
-}
-
-/// Takes this test's turn; `None` (after saying so) when QEMU is missing. A firmware that
-/// does not build fails the test.
-fn turn() -> Option<Turn> {
-    static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
-    if !have_qemu() {
-        // Straight to the file descriptor: the test harness captures `println!`, and a
-        // skipped end-to-end test must show in the log, not pass unnoticed.
-        let _ = writeln!(std::io::stderr(), "SKIPPED: qemu-system-arm missing");
-        return None;
-    }
-    // A test that failed while holding the turn does not spoil the others'.
-    let guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    match firmware() {
-        Ok(elf) => Some(Turn {
-            _guard: guard,
-            elf: elf.clone(),
-        }),
-        Err(e) => panic!("{e}"),
-    }
-}
-
-/// A simulator in real time on a free loopback port.
-fn simulator() -> Simulator {
-    Simulator::start(Config {
-        listen: "127.0.0.1:0".parse().expect("address"),
-        time_scale: 1.0,
-        ..Default::default()
-    })
-    .expect("simulator starts")
-}
-
-/// The virtual panel booted against `sim`, once its link LED is on.
-fn boot(turn: &Turn, sim: &Simulator) -> Running {
-    let robot = sim.addr().to_string();
-    let elf = turn.elf.to_string_lossy().into_owned();
-    let limit = SESSION_LIMIT.as_secs().to_string();
-    let panel = Running::start(&[
-        "--robot",
-        &robot,
-        "--firmware",
-        &elf,
-        "--timeout-s",
-        &limit,
-        "--grace-ms",
-        "300",
-    ]);
-    panel.expect_stdout(0, BOOT_LIMIT, "`led link on`", |l| l == "led link on");
-    panel
-}
-
-/// Ends the session and checks that the firmware never panicked.
-fn finish(panel: Running) {
-    let run = panel.finish(SESSION_LIMIT);
-    run.expect_code(0);
-    assert!(!run.stdout.contains("panic:"), "{run}");
-}
+use x30_sim::Simulator;
 
 /// The Type 2 requests logged since `since` (simulator seconds): (time, Command).
 fn motions(sim: &Simulator, since: f64) -> Vec<(f64, i32)> {
@@ -266,22 +153,7 @@ fn estop_during_motion_sends_command_13_and_stops_the_repeats() {
 fn dock_then_cancel_sends_1003_then_1004_and_the_task_ends_cancelled() {
     let Some(turn) = turn() else { return };
     let sim = simulator();
-    // 20 m from the dock (the default charging point is the origin): a 40 s walk.
-    sim.robot(|r| {
-        r.set_pose(Pose {
-            x: 20.0,
-            ..Default::default()
-        })
-    });
-    let mut panel = boot(&turn, &sim);
-
-    panel.send("+dock");
-    panel.send("-dock");
-    assert!(
-        eventually(REACTION, || sim.snapshot().task.is_some()),
-        "no navigation task started\n{}",
-        log_text(&sim)
-    );
+    let mut panel = docking(&turn, &sim);
     sleep(Duration::from_millis(1000));
     panel.send("+cancel");
     panel.send("-cancel");
@@ -384,6 +256,175 @@ fn leds_follow_the_robots_battery_and_faults() {
         REACTION,
         "`led fault off` when the motors cool",
         |l| l == "led fault off",
+    );
+    finish(panel);
+}
+
+/// The virtual panel booted against `sim`, with a navigation task to the dock running.
+fn docking(turn: &Turn, sim: &Simulator) -> Running {
+    far_from_dock(sim);
+    let mut panel = boot(turn, sim);
+    panel.send("+dock");
+    panel.send("-dock");
+    assert!(
+        eventually(REACTION, || sim.snapshot().task.is_some()),
+        "no navigation task started\n{}",
+        log_text(sim)
+    );
+    panel
+}
+
+/// The simulator seconds of the first Type 2 request with `command` at or after `since`.
+fn first_command(sim: &Simulator, since: f64, command: i32) -> Option<f64> {
+    motions(sim, since)
+        .into_iter()
+        .find(|(_, c)| *c == command)
+        .map(|(t, _)| t)
+}
+
+#[test]
+fn estop_pressed_during_an_outage_is_sent_first_when_the_robot_is_back() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+    sim.refuse_connections(Duration::from_secs(2));
+    sleep(Duration::from_millis(300));
+    panel.send("+estop");
+    sleep(Duration::from_millis(1700));
+    let back = sim.elapsed().as_secs_f64();
+    assert!(
+        eventually(REACTION, || first_command(&sim, back, 13).is_some()),
+        "no Command 13 after the robot came back\n{}",
+        log_text(&sim)
+    );
+    let log = sim.requests();
+    let conn = log
+        .iter()
+        .find(|e| e.t >= back && e.message_type == Some(2))
+        .map(|e| e.conn)
+        .expect("a command connection after the outage");
+    let first = log
+        .iter()
+        .find(|e| e.conn == conn)
+        .expect("its first request");
+    assert_eq!(
+        (first.message_type, first.command),
+        (Some(2), Some(13)),
+        "the e-stop is the first request on the new command connection\n{}",
+        log_text(&sim)
+    );
+    assert!(eventually(REACTION, || sim.snapshot().motion_state
+        == MotionState::SoftEmergencyStop));
+    panel.send("-estop");
+    finish(panel);
+}
+
+#[test]
+fn a_refused_estop_is_repeated_until_the_robot_confirms_it() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+    sim.set_faults(x30_sim::Faults {
+        refuse_estops: 2,
+        ..Default::default()
+    });
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+estop");
+    panel.send("-estop");
+    assert!(
+        eventually(REACTION, || sim.snapshot().motion_state
+            == MotionState::SoftEmergencyStop),
+        "the robot never reached soft e-stop\n{}",
+        log_text(&sim)
+    );
+    sleep(Duration::from_millis(1000));
+    let estops = motions(&sim, pressed)
+        .into_iter()
+        .filter(|(_, c)| *c == 13)
+        .count();
+    assert!(
+        (3..=5).contains(&estops),
+        "{estops} e-stops: two refused, one taken, none after the confirmation\n{}",
+        log_text(&sim)
+    );
+    finish(panel);
+}
+
+#[test]
+fn a_half_open_robot_gets_stops_at_once_and_the_panel_reconnects() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+    let old = sim.requests().iter().map(|e| e.conn).max().unwrap_or(0);
+    panel.send("+forward");
+    sleep(Duration::from_millis(500));
+    sim.set_faults(x30_sim::Faults {
+        mute: true,
+        ..Default::default()
+    });
+    let muted = sim.elapsed().as_secs_f64();
+    sleep(Duration::from_millis(300));
+    let released = sim.elapsed().as_secs_f64();
+    panel.send("-forward");
+    panel.send("+estop");
+    assert!(
+        eventually(REACTION, || first_command(&sim, released, 6).is_some()
+            && first_command(&sim, released, 13).is_some()),
+        "zero velocity and e-stop reach a robot that does not answer\n{}",
+        log_text(&sim)
+    );
+    let zero = first_command(&sim, released, 6).unwrap() - released;
+    let estop = first_command(&sim, released, 13).unwrap() - released;
+    assert!(
+        zero < 0.5 && estop < 0.5,
+        "zero velocity after {zero:.3} s, e-stop after {estop:.3} s\n{}",
+        log_text(&sim)
+    );
+    let from = panel.stdout.len();
+    panel.expect_stdout(from, REACTION, "`led link blink-fast`", |l| {
+        l == "led link blink-fast" || l == "led link blink"
+    });
+    assert!(
+        eventually(REACTION, || sim
+            .requests()
+            .iter()
+            .any(|e| e.t > muted && e.conn > old)),
+        "no new connection to the silent robot\n{}",
+        log_text(&sim)
+    );
+    panel.send("-estop");
+    finish(panel);
+}
+
+#[test]
+fn stop_during_a_navigation_task_sends_1004_and_zero_velocity() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = docking(&turn, &sim);
+    sleep(Duration::from_millis(500));
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+stop");
+    panel.send("-stop");
+    assert!(
+        eventually(REACTION, || sim.snapshot().last_task.is_some()),
+        "the task did not end\n{}",
+        log_text(&sim)
+    );
+    let log = sim.requests();
+    assert!(
+        log.iter()
+            .any(|e| e.t >= pressed && e.message_type == Some(1004)),
+        "no 1004 after stop\n{}",
+        log_text(&sim)
+    );
+    assert!(
+        first_command(&sim, pressed, 6).is_some(),
+        "no zero velocity\n{}",
+        log_text(&sim)
+    );
+    assert_eq!(
+        sim.snapshot().last_task.expect("ended").status,
+        ErrorStatus::TaskCancelled
     );
     finish(panel);
 }

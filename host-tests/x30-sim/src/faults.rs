@@ -6,7 +6,7 @@
 
 use std::fmt;
 use std::str::FromStr;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// The Type every answer carries under [`Faults::unknown_type`]: RTK position, added by
 /// vendor software after V1.0.12 (SPEC §5), so a client built for V1.0.12 does not know it.
@@ -32,16 +32,37 @@ pub const UNKNOWN_ITEMS: [&[u8]; 5] = [
     b"    <MapUpdateState>0</MapUpdateState>\n",
 ];
 
-/// How answers misbehave. The default is a well-behaved robot.
+/// How answers and connections misbehave. The default is a well-behaved robot.
 ///
-/// Every field can be changed while the simulator runs ([`crate::Simulator::set_faults`]);
-/// each answer uses the faults in force when it is written, except `drop_after`, which is
-/// checked as each request arrives.
+/// Every field can be changed while the simulator runs ([`crate::Simulator::set_faults`]).
+/// Each answer uses the faults in force when it is written; `drop_after`, `mute` and
+/// `refuse_estops` also count as each request arrives, and `refuse_connections_until` as
+/// each connection arrives.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct Faults {
     /// Wait this long before writing each answer, counted from when its request arrived
     /// (for a 1003 answer, from when the task ended).
     pub delay: Duration,
+    /// Extra delay for the answers of some Types, added to `delay`: (Type, delay) pairs,
+    /// the last pair for a Type counting. A delayed answer holds up no other answer on its
+    /// connection: each is written when its own delay expires, so answers may leave in
+    /// another order than their requests came (clients match them by message ID). A write
+    /// carrying several answers (a cancel's) waits for the longest of their delays.
+    pub type_delays: Vec<(i32, Duration)>,
+    /// A half-open robot: requests are still read and logged, but neither acted on nor
+    /// answered (not even with Type 0), and connections stay open. Not acting means a
+    /// Command 13 stops nothing, a 1003 starts no task, and motion repeats keep nothing
+    /// going (the watchdog stops the robot). Answers that fall due while muted, a running
+    /// task's included, are discarded rather than kept, so unmuting answers new requests
+    /// only.
+    pub mute: bool,
+    /// Until this moment, new connections are accepted and closed at once without reading;
+    /// setting it to a moment still ahead also closes every open connection.
+    /// [`crate::Simulator::refuse_connections`] sets it from a duration.
+    pub refuse_connections_until: Option<Instant>,
+    /// Refuse this many of the next soft emergency stops (Type 2 Command 13): each is
+    /// answered with ErrorCode 1, leaves the motion state as it was, and counts this down.
+    pub refuse_estops: u32,
     /// Close each connection when it has received this many frames (malformed ones
     /// included), without answering the last one.
     pub drop_after: Option<u64>,
@@ -61,6 +82,36 @@ pub struct Faults {
     /// The XML declaration of answers.
     pub declaration: Declaration,
 }
+
+impl Faults {
+    /// How long after its request an answer of Type `message_type` is written: `delay`
+    /// plus that Type's entry in `type_delays`, if any.
+    pub fn delay_for(&self, message_type: i32) -> Duration {
+        let extra = self
+            .type_delays
+            .iter()
+            .rev()
+            .find(|(t, _)| *t == message_type)
+            .map_or(Duration::ZERO, |(_, d)| *d);
+        self.delay.saturating_add(extra)
+    }
+
+    /// Whether connections arriving at `now` are refused.
+    pub fn refuses_connections(&self, now: Instant) -> bool {
+        self.refuse_connections_until
+            .is_some_and(|until| now < until)
+    }
+}
+
+/// The moment `duration` after `now`; a duration too long for the clock counts as a year.
+pub fn after(now: Instant, duration: Duration) -> Instant {
+    now.checked_add(duration)
+        .or_else(|| now.checked_add(A_YEAR))
+        .unwrap_or(now)
+}
+
+/// Stands in for a duration too long to add to the clock.
+const A_YEAR: Duration = Duration::from_secs(365 * 24 * 3600);
 
 /// The XML declaration answers start with (SPEC §5: real traffic has all three).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -124,12 +175,12 @@ pub fn alter_body(body: &[u8], faults: &Faults) -> Vec<u8> {
     body
 }
 
-/// The bytes of one write: the answer frame, then the extra frame of [`Faults::merge`] if
-/// there is one, each preceded by [`GARBAGE`] if asked.
-pub fn wire_bytes(answer: &[u8], extra: Option<&[u8]>, faults: &Faults) -> Vec<u8> {
-    let mut out =
-        Vec::with_capacity(2 * GARBAGE.len() + answer.len() + extra.map_or(0, <[u8]>::len));
-    for frame in std::iter::once(answer).chain(extra) {
+/// The bytes of one write: the frames in order (answers, and the extra frames of
+/// [`Faults::merge`]), each preceded by [`GARBAGE`] if asked.
+pub fn wire_bytes(frames: &[Vec<u8>], faults: &Faults) -> Vec<u8> {
+    let garbage = if faults.garbage { GARBAGE.len() } else { 0 };
+    let mut out = Vec::with_capacity(frames.iter().map(|f| garbage + f.len()).sum());
+    for frame in frames {
         if faults.garbage {
             out.extend_from_slice(GARBAGE);
         }
@@ -248,7 +299,10 @@ mod tests {
     fn no_faults_change_nothing() {
         let body = encode(&ack());
         assert_eq!(alter_body(&body, &Faults::default()), body);
-        assert_eq!(wire_bytes(b"frame", None, &Faults::default()), b"frame");
+        assert_eq!(
+            wire_bytes(&[b"frame".to_vec()], &Faults::default()),
+            b"frame"
+        );
     }
 
     #[test]
@@ -321,13 +375,42 @@ mod tests {
     }
 
     #[test]
+    fn type_delays_add_to_the_delay_and_the_last_pair_counts() {
+        let faults = Faults {
+            delay: Duration::from_millis(10),
+            type_delays: vec![
+                (1002, Duration::from_millis(100)),
+                (1002, Duration::from_millis(200)),
+                (0, Duration::from_millis(5)),
+            ],
+            ..Faults::default()
+        };
+        assert_eq!(faults.delay_for(1002), Duration::from_millis(210));
+        assert_eq!(faults.delay_for(0), Duration::from_millis(15));
+        assert_eq!(faults.delay_for(2001), Duration::from_millis(10));
+    }
+
+    #[test]
+    fn refusal_ends_at_its_moment() {
+        let now = Instant::now();
+        let later = now + Duration::from_secs(1);
+        let faults = Faults {
+            refuse_connections_until: Some(later),
+            ..Faults::default()
+        };
+        assert!(faults.refuses_connections(now));
+        assert!(!faults.refuses_connections(later));
+        assert!(!Faults::default().refuses_connections(now));
+    }
+
+    #[test]
     fn garbage_precedes_each_frame_and_holds_no_sync() {
         assert!(!GARBAGE.windows(4).any(|w| w == [0xEB, 0x90, 0xEB, 0x90]));
         let faults = Faults {
             garbage: true,
             ..Faults::default()
         };
-        let bytes = wire_bytes(b"AB", Some(b"CD"), &faults);
+        let bytes = wire_bytes(&[b"AB".to_vec(), b"CD".to_vec()], &faults);
         assert_eq!(bytes, [GARBAGE, b"AB", GARBAGE, b"CD"].concat());
     }
 }

@@ -5,8 +5,9 @@
 //! connections: motion control with the robot's motion states, navigation tasks that answer
 //! only when the walk ends, cancelling, task status, battery, perception, light, motor
 //! temperatures and relocalisation. Malformed input gets the robot's Type 0 answers, and
-//! [`Faults`] make answers slow, split, merged, garbled or unexpected, as real robots and
-//! networks do. Every frame received is logged ([`LogEntry`]).
+//! [`Faults`] make answers slow, split, merged, garbled, unexpected or missing, refuse
+//! connections or emergency stops, as real robots and networks do. Every frame received is
+//! logged ([`LogEntry`]).
 //!
 //! All encoding and decoding is the protocol core's (`x30_panel::proto`): the simulator
 //! decodes requests and encodes answers with the same code the panel uses the other way
@@ -70,21 +71,26 @@
 //! # Behaviour in brief
 //!
 //! - Time: the robot's time runs at real time × [`Config::time_scale`] for everything
-//!   physical (walking, navigation, battery, temperatures, lying down). The 500 ms
-//!   manual-motion watchdog runs in real time: it watches the client's sending rate.
+//!   physical (walking, navigation, battery, temperatures, lying down). The manual-motion
+//!   watchdog ([`robot::MOTION_TIMEOUT`], 400 ms) runs in real time: it watches the
+//!   client's sending rate.
 //! - Motion (Type 2): see [`Robot`] for the motion states; translations and rotations
-//!   continue while repeated and stop 500 ms after the last one or on Command 6.
+//!   continue while repeated and stop when a gap between repeats exceeds 400 ms (the
+//!   protocol asks for at least 3 Hz) or on Command 6.
 //! - Navigation (1003): answered when the walk ends (distance / speed), or at once when
 //!   refused; 1004 sends the task's answer (ErrorCode 2, 8962) on the task's connection,
-//!   then its own answer about 50 ms later; a dropped task connection stops the task
-//!   (41802).
+//!   then at once its own answer: both frames in one write when the task and the cancel
+//!   came on the same connection. A dropped task connection stops the task (41802).
 //! - Battery (2001): `Current` is positive while discharging, negative while charging.
 //! - Malformed input: Type 0 with ErrorCode 1 (bytes without a sync sequence), 2 (reserved
 //!   bytes not zero), 3 (longer than the longest valid request) or 4 (body not a valid
-//!   request, unknown Type included), the frame's message ID (0 for bytes without a
-//!   header) and the time `0000-00-00 00:00:00`; the connection stays usable.
-//! - Every answer frame is written with its own `write` call (unless a fault says
-//!   otherwise), because existing clients read one frame per read.
+//!   request, unknown Type included), the frame's message ID when its header was read (0
+//!   for bytes without a header) and the time `0000-00-00 00:00:00`; the connection stays
+//!   usable. A run of bytes without a sync sequence is answered once, when the next sync
+//!   sequence arrives or after [`NO_SYNC_QUIET`] without a byte, whichever is first, so a
+//!   client that writes a bare XML document gets its answer.
+//! - Every answer is written with its own `write` call (unless a fault says otherwise, or
+//!   it is a cancel's pair of answers), because existing clients read one frame per read.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -94,6 +100,7 @@ mod log;
 mod outbox;
 pub mod robot;
 mod server;
+mod unsynced;
 
 use std::io;
 use std::net::{SocketAddr, TcpListener};
@@ -104,9 +111,10 @@ use std::time::{Duration, Instant};
 
 pub use faults::{Declaration, Faults};
 pub use log::{LogEntry, MEMORY_LIMIT};
-pub use outbox::{CANCEL_GAP, SPLIT_GAP};
+pub use outbox::SPLIT_GAP;
 pub use robot::{Pose, Robot, Snapshot};
 pub use server::TICK;
+pub use unsynced::NO_SYNC_QUIET;
 
 use log::RequestLog;
 use server::Shared;
@@ -229,6 +237,13 @@ impl Simulator {
         let mut faults = self.faults();
         f(&mut faults);
         self.set_faults(faults);
+    }
+
+    /// Closes every open connection and refuses new ones for `duration` from now
+    /// ([`Faults::refuse_connections_until`]).
+    pub fn refuse_connections(&self, duration: Duration) {
+        let until = faults::after(Instant::now(), duration);
+        self.update_faults(|f| f.refuse_connections_until = Some(until));
     }
 
     /// Every frame clients have sent (the last [`MEMORY_LIMIT`]), oldest first.

@@ -7,7 +7,7 @@ use std::io::Write;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use clap::{Parser, ValueEnum};
 use x30_sim::{Config, DEFAULT_LISTEN, Declaration, Faults, Simulator};
@@ -25,6 +25,19 @@ struct Cli {
     /// Delay every answer by this many milliseconds.
     #[arg(long, value_name = "MS", default_value_t = 0)]
     delay_ms: u64,
+    /// Delay answers of Type TYPE by MS more milliseconds, without holding up other answers
+    /// (repeatable: --delay-type 1002=1200 --delay-type 2001=300).
+    #[arg(long = "delay-type", value_name = "TYPE=MS", value_parser = type_delay)]
+    delay_types: Vec<(i32, Duration)>,
+    /// Read and log requests but neither act on them nor answer (a half-open robot).
+    #[arg(long)]
+    mute: bool,
+    /// Refuse connections (accept and close them at once) for MS milliseconds from the start.
+    #[arg(long, value_name = "MS")]
+    refuse_for_ms: Option<u64>,
+    /// Refuse the next N soft emergency stops (Command 13): ErrorCode 1, no state change.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    refuse_estops: u32,
     /// Close each connection on receiving its Nth frame, without answering it.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     drop_after: Option<u64>,
@@ -72,6 +85,22 @@ impl From<DeclarationArg> for Declaration {
     }
 }
 
+/// Parses `TYPE=MS`, for `--delay-type`.
+fn type_delay(text: &str) -> Result<(i32, Duration), String> {
+    let (message_type, ms) = text
+        .split_once('=')
+        .ok_or_else(|| format!("{text:?} is not TYPE=MS"))?;
+    let message_type = message_type
+        .trim()
+        .parse::<i32>()
+        .map_err(|e| format!("Type {message_type:?}: {e}"))?;
+    let ms = ms
+        .trim()
+        .parse::<u64>()
+        .map_err(|e| format!("milliseconds {ms:?}: {e}"))?;
+    Ok((message_type, Duration::from_millis(ms)))
+}
+
 fn positive_float(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
@@ -86,6 +115,12 @@ impl Cli {
             time_scale: self.time_scale,
             faults: Faults {
                 delay: Duration::from_millis(self.delay_ms),
+                type_delays: self.delay_types.clone(),
+                mute: self.mute,
+                refuse_connections_until: self
+                    .refuse_for_ms
+                    .map(|ms| x30_sim::faults::after(Instant::now(), Duration::from_millis(ms))),
+                refuse_estops: self.refuse_estops,
                 drop_after: self.drop_after,
                 garbage: self.garbage,
                 split: self.split.and_then(|n| usize::try_from(n).ok()),

@@ -1,10 +1,14 @@
-//! Each connection's outbox: one thread that writes the connection's answers in order.
+//! Each connection's outbox: one thread that writes the connection's answers.
 //!
 //! Answers reach a connection from several threads: its own reader, another connection's
 //! reader (a cancel, a soft emergency stop) and the tick thread (a task that arrived). They
 //! all queue an [`Outgoing`] here, so frames never interleave and nobody but this thread
 //! waits for delays or slow clients. Every answer is encoded with the protocol core, then
 //! altered and written as the faults in force at that moment say.
+//!
+//! Answers wait in arrival order until their delay ([`Faults::delay_for`]) has expired; of
+//! those due, the earliest queued is written first. So without per-Type delays answers go
+//! out in the order they were queued, and with them a slow Type holds up no other.
 
 use std::io::{self, Write};
 use std::net::TcpStream;
@@ -20,103 +24,140 @@ use crate::clock;
 use crate::faults::{self, Faults, MERGED_ID_OFFSET};
 use crate::server::{Shared, lock};
 
-/// Gap between a cancelled task's 1003 answer and the 1004 answer that follows it.
-pub const CANCEL_GAP: Duration = Duration::from_millis(50);
-
 /// Gap between the chunks of a split answer.
 pub const SPLIT_GAP: Duration = Duration::from_millis(1);
 
-/// Longest wait for another connection to write the answer this one must follow; past it
-/// the answer is written anyway rather than never.
-const ORDER_WAIT_LIMIT: Duration = Duration::from_secs(2);
-
 /// How often a waiting outbox looks whether the simulator is shutting down.
 const POLL: Duration = Duration::from_millis(50);
-
-/// Stands in for a delay too long to add to the clock.
-const FOREVER: Duration = Duration::from_secs(365 * 24 * 3600);
 
 /// Room for one encoded answer body; the longest (1002 with every float at its longest) is
 /// well under 2 KiB.
 const BODY_CAPACITY: usize = 8192;
 
-/// One answer waiting to be written.
+/// Answers to put on the wire together, in one write.
 #[derive(Debug)]
 pub struct Outgoing {
-    /// The message ID to answer with.
-    pub message_id: u16,
-    /// The answer.
-    pub response: Response,
-    /// When the request arrived (or the task ended); [`Faults::delay`] counts from here.
+    /// Message ID and answer of each frame, in the order they are written.
+    pub frames: Vec<(u16, Response)>,
+    /// When the request arrived (or the task ended); the delays count from here.
     pub since: Instant,
-    /// Another answer this one must follow: write only after it has been written (or its
-    /// outbox has given up), and [`CANCEL_GAP`] after that.
-    pub after: Option<Receiver<()>>,
-    /// Told once this answer has been written.
-    pub written: Option<Sender<()>>,
+    /// Queued on another connection once these answers are written or given up; held for
+    /// its `Drop`, which does the queueing.
+    _follow_up: Option<FollowUp>,
 }
 
 impl Outgoing {
     /// An answer to send as soon as the faults allow.
     pub fn new(message_id: u16, response: Response) -> Self {
         Self {
-            message_id,
-            response,
+            frames: vec![(message_id, response)],
             since: Instant::now(),
-            after: None,
-            written: None,
+            _follow_up: None,
+        }
+    }
+
+    /// The same write with one more answer after the others.
+    pub fn and(mut self, message_id: u16, response: Response) -> Self {
+        self.frames.push((message_id, response));
+        self
+    }
+
+    /// The same write, followed by `next` on another connection's outbox.
+    pub fn then(self, outbox: Sender<Outgoing>, next: Outgoing) -> Self {
+        Self {
+            _follow_up: Some(FollowUp {
+                outbox,
+                next: Some(Box::new(next)),
+            }),
+            ..self
+        }
+    }
+
+    /// When the faults let it be written: the longest delay of its answers' Types.
+    fn due(&self, faults: &Faults) -> Instant {
+        let delay = self
+            .frames
+            .iter()
+            .map(|(_, r)| faults.delay_for(r.message_type().raw()))
+            .max()
+            .unwrap_or(faults.delay);
+        faults::after(self.since, delay)
+    }
+}
+
+/// An answer that must leave right after another connection's: a cancel's 1004 answer
+/// after the cancelled task's 1003 answer.
+///
+/// It is queued when dropped, that is once the answer carrying it has been written, or
+/// discarded, or its connection has gone; so the later answer is never lost and never
+/// waits longer than the earlier one's write.
+#[derive(Debug)]
+pub struct FollowUp {
+    outbox: Sender<Outgoing>,
+    next: Option<Box<Outgoing>>,
+}
+
+impl Drop for FollowUp {
+    fn drop(&mut self) {
+        if let Some(next) = self.next.take() {
+            // The other connection may have closed meanwhile: then nobody waits for it.
+            let _ = self.outbox.send(*next);
         }
     }
 }
 
-/// Writes the answers queued for one connection until the queue closes (its reader has
-/// ended), a write fails, or the simulator shuts down.
+/// Writes the answers queued for one connection until the queue has closed (its reader
+/// has ended) and nothing is left, a write fails, or the simulator shuts down.
 pub(crate) fn run(shared: Arc<Shared>, mut stream: TcpStream, queue: Receiver<Outgoing>) {
-    loop {
-        let outgoing = match queue.recv_timeout(POLL) {
-            Ok(outgoing) => outgoing,
-            Err(RecvTimeoutError::Timeout) if !shared.is_shutting_down() => continue,
-            Err(_) => return,
-        };
+    let mut waiting: Vec<Outgoing> = Vec::new();
+    let mut open = true;
+    while (open || !waiting.is_empty()) && !shared.is_shutting_down() {
         let faults = shared.faults();
-        // A delay too long for the clock waits until shutdown instead of overflowing.
-        let due = outgoing
-            .since
-            .checked_add(faults.delay)
-            .unwrap_or_else(|| Instant::now() + FOREVER);
-        if !pause_until(&shared, due) {
-            return;
-        }
-        if let Some(previous) = &outgoing.after {
-            // Either a signal or a closed channel (that outbox gave up) lets this one go.
-            let _ = previous.recv_timeout(ORDER_WAIT_LIMIT);
-            if !pause_until(&shared, Instant::now() + CANCEL_GAP) {
+        let now = Instant::now();
+        if let Some(i) = waiting.iter().position(|o| o.due(&faults) <= now) {
+            let outgoing = waiting.remove(i);
+            if !faults.mute && send(&shared, &mut stream, &outgoing, &faults).is_err() {
                 return;
             }
+            continue;
         }
-        let bytes = wire_bytes(&shared, &outgoing, &faults);
-        if write(&shared, &mut stream, &bytes, faults.split).is_err() {
-            return;
+        let next_due = waiting.iter().map(|o| o.due(&faults)).min();
+        let wait = next_due.map_or(POLL, |due| due.saturating_duration_since(now).min(POLL));
+        if !open {
+            std::thread::sleep(wait);
+            continue;
         }
-        if let Some(written) = outgoing.written {
-            let _ = written.send(());
+        match queue.recv_timeout(wait) {
+            Ok(outgoing) => waiting.push(outgoing),
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => open = false,
         }
     }
 }
 
-/// Everything one answer puts on the wire.
+/// Encodes and writes one [`Outgoing`].
+fn send(
+    shared: &Shared,
+    stream: &mut TcpStream,
+    outgoing: &Outgoing,
+    faults: &Faults,
+) -> io::Result<()> {
+    let bytes = wire_bytes(shared, outgoing, faults);
+    write(shared, stream, &bytes, faults.split)
+}
+
+/// Everything one write puts on the wire.
 fn wire_bytes(shared: &Shared, outgoing: &Outgoing, faults: &Faults) -> Vec<u8> {
-    let Some(answer) = encode_frame(outgoing.message_id, &outgoing.response, faults) else {
-        return Vec::new();
-    };
-    let extra = if faults.merge {
-        let status = lock(&shared.robot).status();
-        let id = outgoing.message_id.wrapping_add(MERGED_ID_OFFSET);
-        encode_frame(id, &Response::Status(status), faults)
-    } else {
-        None
-    };
-    faults::wire_bytes(&answer, extra.as_deref(), faults)
+    let mut frames = Vec::with_capacity(2 * outgoing.frames.len());
+    for (id, response) in &outgoing.frames {
+        frames.extend(encode_frame(*id, response, faults));
+        if faults.merge {
+            let status = lock(&shared.robot).status();
+            let id = id.wrapping_add(MERGED_ID_OFFSET);
+            frames.extend(encode_frame(id, &Response::Status(status), faults));
+        }
+    }
+    faults::wire_bytes(&frames, faults)
 }
 
 /// Encodes one answer frame with the protocol core, then alters its body as the faults say.

@@ -3,7 +3,9 @@
 //! Threads and what they own:
 //! - the listener accepts connections and starts a reader and an outbox for each;
 //! - the tick thread moves the robot on at 50 Hz and sends the answers of tasks that ended;
-//! - a connection's reader decodes frames, logs them, asks the robot, and queues answers;
+//! - a connection's reader decodes frames, logs them, asks the robot, and queues answers
+//!   (it also answers bytes without a sync sequence that no frame follows, see
+//!   [`crate::unsynced`]);
 //! - a connection's outbox ([`crate::outbox`]) writes them.
 //!
 //! All of them share one [`Shared`]. No thread holds two of its locks at once, so they
@@ -20,13 +22,14 @@ use std::time::{Duration, Instant};
 
 use x30_panel::proto::codes::RequestErrorCode;
 use x30_panel::proto::frame::{FrameDecoder, FrameError, HEADER_LEN};
-use x30_panel::proto::message::{MAX_REQUEST_LEN, Request, RequestError, Response};
+use x30_panel::proto::message::{MAX_REQUEST_LEN, MotionCommand, Request, RequestError, Response};
 use x30_panel::proto::xml::{StructureError, read_document};
 
 use crate::faults::Faults;
 use crate::log::{LogEntry, RequestLog};
 use crate::outbox::{self, Outgoing};
-use crate::robot::{ConnId, EndedTask, Reply, Requester, Robot};
+use crate::robot::{self, ConnId, EndedTask, Reply, Requester, Robot};
+use crate::unsynced::{Event, Unsynced};
 
 /// How often the robot is moved on when nobody asks it anything.
 pub const TICK: Duration = Duration::from_millis(20);
@@ -37,8 +40,14 @@ const ACCEPT_POLL: Duration = Duration::from_millis(5);
 /// Longest a reader blocks in `read` before looking whether the simulator is shutting down.
 const READ_POLL: Duration = Duration::from_millis(100);
 
-/// The frame decoder of each connection: big enough for the longest valid request.
-type Decoder = FrameDecoder<{ HEADER_LEN + MAX_REQUEST_LEN }>;
+/// Shortest read timeout (zero would mean none at all).
+const MIN_READ_WAIT: Duration = Duration::from_millis(1);
+
+/// Size of each connection's frame decoder: room for the longest valid request.
+const DECODER_LEN: usize = HEADER_LEN + MAX_REQUEST_LEN;
+
+/// The frame decoder of each connection.
+type Decoder = FrameDecoder<DECODER_LEN>;
 
 /// Locks a mutex, carrying on with the data if another thread panicked while holding it
 /// (the simulator's state stays usable; nothing here leaves it half-changed).
@@ -97,9 +106,21 @@ impl Shared {
         lock(&self.faults).clone()
     }
 
-    /// Changes the faults in force.
+    /// Changes the faults in force; refusing connections from now on closes the open ones.
     pub fn set_faults(&self, faults: Faults) {
+        let refusing = faults.refuses_connections(Instant::now());
         *lock(&self.faults) = faults;
+        if refusing {
+            self.drop_connections();
+        }
+    }
+
+    /// Uses up one of [`Faults::refuse_estops`]; false if none is left.
+    pub fn take_estop_refusal(&self) -> bool {
+        let mut faults = lock(&self.faults);
+        let refuse = faults.refuse_estops > 0;
+        faults.refuse_estops = faults.refuse_estops.saturating_sub(1);
+        refuse
     }
 
     /// Whether the simulator is shutting down.
@@ -130,15 +151,17 @@ impl Shared {
     /// Queues ended tasks' answers on their connections (gone connections are skipped).
     fn deliver(&self, ended: Vec<EndedTask>) {
         for task in ended {
-            let answer = Outgoing::new(task.owner.message_id, Response::NavResult(task.result));
-            self.send_to(task.owner.conn, answer);
+            self.send_to(task.owner.conn, task_answer(&task));
         }
     }
 
-    /// Queues an answer on a connection; false if it is gone.
-    fn send_to(&self, conn: ConnId, outgoing: Outgoing) -> bool {
+    /// Queues an answer on a connection. If the connection is gone the answer is dropped,
+    /// which still queues its follow-up ([`outbox::FollowUp`]).
+    fn send_to(&self, conn: ConnId, outgoing: Outgoing) {
         let outbox = lock(&self.conns).get(&conn).map(|c| c.outbox.clone());
-        outbox.is_some_and(|outbox| outbox.send(outgoing).is_ok())
+        if let Some(outbox) = outbox {
+            let _ = outbox.send(outgoing);
+        }
     }
 
     /// Closes every open connection now; their readers notice and clean up.
@@ -204,13 +227,18 @@ pub(crate) fn tick(shared: Arc<Shared>) {
     }
 }
 
-/// Registers a new connection and starts its outbox and reader.
+/// The answer to send for a navigation task that has ended.
+fn task_answer(task: &EndedTask) -> Outgoing {
+    Outgoing::new(task.owner.message_id, Response::NavResult(task.result))
+}
+
+/// Registers a new connection and starts its outbox and reader, unless connections are
+/// refused: then it is closed without a byte read.
 fn open_connection(shared: &Arc<Shared>, stream: TcpStream) -> io::Result<()> {
     // Accepted sockets may inherit the listener's non-blocking mode on some platforms.
     stream.set_nonblocking(false)?;
     // Each answer (or chunk) must leave as written, not coalesced with the next.
     stream.set_nodelay(true)?;
-    stream.set_read_timeout(Some(READ_POLL))?;
     let conn = shared.next_conn.fetch_add(1, Ordering::SeqCst);
     let (outbox, queue) = mpsc::channel();
     let writer = stream.try_clone()?;
@@ -219,6 +247,12 @@ fn open_connection(shared: &Arc<Shared>, stream: TcpStream) -> io::Result<()> {
         stream: stream.try_clone()?,
     };
     lock(&shared.conns).insert(conn, handle);
+    // Looked at once registered: a refusal starting meanwhile either finds this connection
+    // to close, or is seen here. Returning drops (closes) every handle to the socket.
+    if shared.faults().refuses_connections(Instant::now()) {
+        lock(&shared.conns).remove(&conn);
+        return Ok(());
+    }
     let started = {
         let shared_w = Arc::clone(shared);
         let shared_r = Arc::clone(shared);
@@ -261,9 +295,8 @@ struct Connection {
     outbox: Sender<Outgoing>,
     /// Frames received so far, for [`Faults::drop_after`].
     received: u64,
-    /// Whether the last event was a frame with a wrong header: the bytes after it that the
-    /// decoder discards as garbage are that frame's rest, not another error.
-    after_bad_header: bool,
+    /// Bytes without a sync sequence not answered yet.
+    unsynced: Unsynced,
 }
 
 impl Connection {
@@ -274,7 +307,7 @@ impl Connection {
             conn,
             outbox,
             received: 0,
-            after_bad_header: false,
+            unsynced: Unsynced::new(Instant::now()),
         }
     }
 
@@ -282,26 +315,13 @@ impl Connection {
     /// the simulator shuts down; then tells the robot the connection is gone.
     fn serve(mut self) {
         let mut decoder = Box::new(Decoder::new());
-        'read: while !self.shared.is_shutting_down() {
-            let spare = decoder.spare();
-            if spare.is_empty() {
-                // The decoder promises room while a frame is incomplete; never spin if not.
-                decoder.clear();
-                continue;
+        while !self.shared.is_shutting_down() {
+            if self.read(&mut decoder) == Flow::Close {
+                break;
             }
-            match (&self.stream).read(spare) {
-                Ok(0) => break,
-                Ok(n) => decoder.commit(n),
-                Err(e) if is_retry(&e) => continue,
-                Err(_) => break,
-            }
-            while let Some(event) = decoder.decode() {
-                // Owned, so the decoder's buffer is free again while the robot is asked.
-                let event = event.map(|f| (f.message_id, f.asdu.to_vec()));
-                if self.on_event(event) == Flow::Close {
-                    let _ = self.stream.shutdown(Shutdown::Both);
-                    break 'read;
-                }
+            if self.answer_received(&mut decoder) == Flow::Close {
+                let _ = self.stream.shutdown(Shutdown::Both);
+                break;
             }
         }
         let conn = self.conn;
@@ -310,16 +330,71 @@ impl Connection {
         lock(&self.shared.conns).remove(&conn);
     }
 
-    /// Logs and answers one frame, or one stream error.
-    fn on_event(&mut self, event: Result<(u16, Vec<u8>), FrameError>) -> Flow {
-        let Some((entry, received)) = self.classify(event) else {
+    /// Reads what has arrived into the decoder, waiting no longer than until bytes without
+    /// a sync sequence are due an answer; `Close` when the client has gone.
+    fn read(&mut self, decoder: &mut Decoder) -> Flow {
+        let spare = decoder.spare();
+        if spare.is_empty() {
+            // The decoder promises room while a frame is incomplete; never spin if not.
+            self.unsynced.on_cleared(DECODER_LEN);
+            decoder.clear();
             return Flow::Continue;
-        };
+        }
+        let held = DECODER_LEN - spare.len();
+        let wait = self
+            .unsynced
+            .wait(held, Instant::now())
+            .map_or(READ_POLL, |w| w.clamp(MIN_READ_WAIT, READ_POLL));
+        if self.stream.set_read_timeout(Some(wait)).is_err() {
+            return Flow::Close;
+        }
+        match (&self.stream).read(spare) {
+            Ok(0) => Flow::Close,
+            Ok(n) => {
+                decoder.commit(n);
+                self.unsynced.on_read(n, Instant::now());
+                Flow::Continue
+            }
+            Err(e) if is_retry(&e) => Flow::Continue,
+            Err(_) => Flow::Close,
+        }
+    }
+
+    /// Answers every frame the decoder has, then bytes without a sync sequence that have
+    /// gone quiet; `Close` if a fault closes the connection.
+    fn answer_received(&mut self, decoder: &mut Decoder) -> Flow {
+        while let Some(event) = decoder.decode() {
+            // Owned, so the decoder's buffer is free again while the robot is asked.
+            let event = event.map(|f| (f.message_id, f.asdu.to_vec()));
+            let Some(event) = self.unsynced.filter(event) else {
+                continue;
+            };
+            if self.on_event(event) == Flow::Close {
+                return Flow::Close;
+            }
+        }
+        let held = DECODER_LEN - decoder.spare().len();
+        match self.unsynced.take_due(held, Instant::now()) {
+            Some(skipped) => self.on_event(Err(FrameError::Garbage { skipped })),
+            None => Flow::Continue,
+        }
+    }
+
+    /// Logs one frame or stream error, then acts on it and answers it unless muted.
+    fn on_event(&mut self, event: Event) -> Flow {
+        let (entry, received) = self.classify(event);
         self.shared.log.record(entry);
         self.received = self.received.saturating_add(1);
-        let limit = self.shared.faults().drop_after;
-        if limit.is_some_and(|limit| self.received >= limit) {
+        let faults = self.shared.faults();
+        if faults
+            .drop_after
+            .is_some_and(|limit| self.received >= limit)
+        {
             return Flow::Close;
+        }
+        if faults.mute {
+            // A half-open robot: it hears the request but does nothing about it.
+            return Flow::Continue;
         }
         match received {
             Received::Request { id, request } => self.handle(id, &request),
@@ -330,22 +405,15 @@ impl Connection {
         Flow::Continue
     }
 
-    /// What an event amounts to, with its log entry; `None` for the rest of a frame whose
-    /// header was wrong, which that frame's error already covers.
-    fn classify(
-        &mut self,
-        event: Result<(u16, Vec<u8>), FrameError>,
-    ) -> Option<(LogEntry, Received)> {
+    /// What an event amounts to, with its log entry.
+    fn classify(&self, event: Event) -> (LogEntry, Received) {
         let t = self.shared.now().as_secs_f64();
         let conn = self.conn;
-        let after_bad_header = std::mem::take(&mut self.after_bad_header);
         let (id, asdu) = match event {
             Ok(frame) => frame,
-            Err(FrameError::Garbage { .. }) if after_bad_header => return None,
             Err(error) => {
                 let (code, id) = match error {
                     FrameError::BadReserved { message_id } => {
-                        self.after_bad_header = true;
                         (RequestErrorCode::HeaderWrong, Some(message_id))
                     }
                     FrameError::TooLong { message_id, .. } => {
@@ -356,10 +424,10 @@ impl Connection {
                 let entry = LogEntry::failure(t, conn, id, None, format!("frame: {error:?}"));
                 // Bytes without a header have no message ID: answer with 0.
                 let id = id.unwrap_or(0);
-                return Some((entry, Received::Invalid { id, code }));
+                return (entry, Received::Invalid { id, code });
             }
         };
-        Some(match Request::decode(&asdu) {
+        match Request::decode(&asdu) {
             Ok(decoded) => (
                 LogEntry::request(t, conn, id, &decoded.message),
                 Received::Request {
@@ -377,11 +445,18 @@ impl Connection {
                     },
                 )
             }
-        })
+        }
     }
 
-    /// Asks the robot and queues what it says.
+    /// Asks the robot and queues what it says; a soft emergency stop may be refused first
+    /// ([`Faults::refuse_estops`]), without the robot hearing of it.
     fn handle(&self, message_id: u16, request: &Request) {
+        if let Request::Motion(command @ MotionCommand::SoftEmergencyStop) = request
+            && self.shared.take_estop_refusal()
+        {
+            self.answer(message_id, robot::motion_answer(command, false));
+            return;
+        }
         let from = Requester {
             conn: self.conn,
             message_id,
@@ -392,19 +467,20 @@ impl Connection {
         {
             Reply::Now(response) => self.answer(message_id, response),
             Reply::Later => {}
-            Reply::AfterTask { task, answer } => {
-                // The task's answer goes first on its own connection; this one waits for it.
-                let (written, after) = mpsc::channel();
-                let task_answer = Outgoing {
-                    written: Some(written),
-                    ..Outgoing::new(task.owner.message_id, Response::NavResult(task.result))
-                };
-                self.shared.send_to(task.owner.conn, task_answer);
-                let _ = self.outbox.send(Outgoing {
-                    after: Some(after),
-                    ..Outgoing::new(message_id, answer)
-                });
-            }
+            Reply::AfterTask { task, answer } => self.answer_after_task(&task, message_id, answer),
+        }
+    }
+
+    /// Sends a cancelled task's answer, then the cancel's: in one write when both go to
+    /// this connection, as the robot does; otherwise the cancel's as soon as the task's has
+    /// been written on its own connection.
+    fn answer_after_task(&self, task: &EndedTask, message_id: u16, answer: Response) {
+        if task.owner.conn == self.conn {
+            let _ = self.outbox.send(task_answer(task).and(message_id, answer));
+        } else {
+            let cancel = Outgoing::new(message_id, answer);
+            let first = task_answer(task).then(self.outbox.clone(), cancel);
+            self.shared.send_to(task.owner.conn, first);
         }
     }
 

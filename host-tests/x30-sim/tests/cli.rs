@@ -3,10 +3,13 @@
 mod common;
 
 use std::io::{BufRead, BufReader};
+use std::net::SocketAddr;
 use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
 
 use common::*;
-use x30_panel::proto::message::{Request, Response};
+use x30_panel::proto::codes::{CommandResult, MotionState};
+use x30_panel::proto::message::{MotionCommand, Request, Response};
 
 /// Kills the child this test started when the test ends, however it ends.
 struct Running(Child);
@@ -18,17 +21,11 @@ impl Drop for Running {
     }
 }
 
-#[test]
-fn prints_its_address_and_serves() {
+/// Starts the binary on a free loopback port with `args`; returns it and its address.
+fn spawn(args: &[&str]) -> (Running, SocketAddr) {
     let child = Command::new(env!("CARGO_BIN_EXE_x30-sim"))
-        .args([
-            "--listen",
-            "127.0.0.1:0",
-            "--time-scale",
-            "5",
-            "--declaration",
-            "none",
-        ])
+        .args(["--listen", "127.0.0.1:0"])
+        .args(args)
         .stdout(Stdio::piped())
         .spawn()
         .expect("the binary starts");
@@ -41,7 +38,17 @@ fn prints_its_address_and_serves() {
         .strip_prefix("x30-sim listening on ")
         .unwrap_or_else(|| panic!("unexpected first line {line:?}"));
     assert!(addr.starts_with("127.0.0.1:"), "{addr}");
-    let mut client = Client::connect(addr.parse().unwrap());
+    (running, addr.parse().unwrap())
+}
+
+fn ms(n: u64) -> Duration {
+    Duration::from_millis(n)
+}
+
+#[test]
+fn prints_its_address_and_serves() {
+    let (_running, addr) = spawn(&["--time-scale", "5", "--declaration", "none"]);
+    let mut client = Client::connect(addr);
     client.send(&Request::Status);
     let (_, body) = client.recv_frame_within(TIMEOUT).expect("an answer");
     assert!(
@@ -62,6 +69,11 @@ fn refuses_bad_arguments() {
         &["--declaration", "triple"],
         &["--split", "0"],
         &["--listen", "nowhere"],
+        &["--delay-type", "1002"],
+        &["--delay-type", "status=5"],
+        &["--delay-type", "1002=-5"],
+        &["--refuse-estops", "-1"],
+        &["--refuse-for-ms", "soon"],
     ] {
         let status = Command::new(env!("CARGO_BIN_EXE_x30-sim"))
             .args(args)
@@ -71,4 +83,68 @@ fn refuses_bad_arguments() {
             .unwrap();
         assert!(!status.success(), "{args:?}");
     }
+}
+
+/// `--delay-type` (repeatable) delays one Type without holding up the others, and
+/// `--refuse-estops` refuses that many Command 13s.
+#[test]
+fn delay_type_and_refuse_estops() {
+    let (_running, addr) = spawn(&[
+        "--delay-type",
+        "1002=500",
+        "--delay-type",
+        "1008=500",
+        "--refuse-estops",
+        "1",
+    ]);
+    let mut client = Client::connect(addr);
+    let sent = Instant::now();
+    let status = client.send(&Request::Status);
+    let battery = client.send(&Request::Battery);
+    assert_eq!(client.recv().id, battery);
+    assert_eq!(client.recv().id, status);
+    assert!(sent.elapsed() >= ms(500), "{:?}", sent.elapsed());
+    let refused = client.motion(MotionCommand::SoftEmergencyStop);
+    assert_eq!(refused.result, CommandResult::Failure);
+    let stopped = client.motion(MotionCommand::SoftEmergencyStop);
+    assert_eq!(stopped.result, CommandResult::Success);
+    let id = client.send(&Request::Status);
+    match client.recv() {
+        Answer {
+            id: answer_id,
+            response: Response::Status(s),
+            ..
+        } if answer_id == id => assert_eq!(s.motion_state, MotionState::SoftEmergencyStop),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// `--mute`: the connection is accepted and stays open, but nothing is answered.
+#[test]
+fn mute() {
+    let (_running, addr) = spawn(&["--mute"]);
+    let mut client = Client::connect(addr);
+    client.send(&Request::Status);
+    client.send_raw(b"no header");
+    assert!(client.recv_frame_within(ms(500)).is_none());
+    // Still open: the request goes out, and nothing comes back, not even a close.
+    client.send(&Request::Battery);
+    assert!(!client.closed_within(ms(300)));
+}
+
+/// `--refuse-for-ms`: connections are closed at once for that long after the start.
+#[test]
+fn refuse_for_ms() {
+    let started = Instant::now();
+    let (_running, addr) = spawn(&["--refuse-for-ms", "700"]);
+    let mut refused = Client::connect(addr);
+    if started.elapsed() < ms(600) {
+        assert!(refused.closed_within(ms(5000)), "refused at first");
+    }
+    std::thread::sleep(ms(900).saturating_sub(started.elapsed()));
+    let mut client = Client::connect(addr);
+    assert!(matches!(
+        client.request(&Request::Battery),
+        Response::Battery(_)
+    ));
 }

@@ -268,3 +268,131 @@ fn every_answer_frame_is_its_own_write() {
         "one frame, whole, in its read"
     );
 }
+
+/// A delayed Type holds up no other answer on the same connection: the 2001 answer sent
+/// second leaves first, the 1002 answer after its own delay, each matched by message ID.
+#[test]
+fn a_type_delay_holds_up_only_its_own_type() {
+    let sim = start_faulty(Faults {
+        delay: ms(100),
+        type_delays: vec![(1002, ms(600))],
+        ..Faults::default()
+    });
+    let mut client = Client::connect(sim.addr());
+    let sent = Instant::now();
+    let status = client.send(&Request::Status);
+    let battery = client.send(&Request::Battery);
+    let first = client.recv();
+    let first_at = sent.elapsed();
+    let second = client.recv();
+    let second_at = sent.elapsed();
+    assert_eq!(first.id, battery, "the undelayed answer first");
+    assert!(matches!(first.response, Response::Battery(_)));
+    assert!(first_at >= ms(100), "the global delay still applies");
+    assert_eq!(second.id, status);
+    assert!(matches!(second.response, Response::Status(_)));
+    assert!(second_at >= ms(700), "{second_at:?}");
+    // Changed at run time: now 2001 is the slow one.
+    sim.set_faults(Faults {
+        type_delays: vec![(2001, ms(400))],
+        ..Faults::default()
+    });
+    let battery = client.send(&Request::Battery);
+    let status = client.send(&Request::Status);
+    assert_eq!(client.recv().id, status);
+    assert_eq!(client.recv().id, battery);
+}
+
+/// Muted, the robot reads and logs requests but neither acts on them nor answers, and the
+/// connection stays open; unmuted, it answers new requests (and never the old ones).
+#[test]
+fn mute_logs_requests_but_neither_acts_nor_answers() {
+    let sim = start_faulty(Faults {
+        mute: true,
+        ..Faults::default()
+    });
+    let mut client = Client::connect(sim.addr());
+    client.send(&Request::Status);
+    client.send(&Request::Motion(
+        x30_panel::proto::message::MotionCommand::SoftEmergencyStop,
+    ));
+    client.send_raw(&raw_frame(9, b"not xml"));
+    assert!(wait_until(ms(2000), || sim.requests().len() == 3));
+    assert!(
+        client.recv_frame_within(ms(500)).is_none(),
+        "no answer, not even Type 0"
+    );
+    assert_eq!(sim.connections(), 1, "the connection stays open");
+    assert_eq!(
+        sim.snapshot().motion_state.raw(),
+        3,
+        "the e-stop was not acted on"
+    );
+    sim.update_faults(|f| f.mute = false);
+    let status = client.status();
+    assert_eq!(status.motion_state.raw(), 3);
+}
+
+/// While connections are refused, open ones are closed and new ones accepted and closed at
+/// once; afterwards connections work again.
+#[test]
+fn refusing_connections_for_a_while() {
+    let sim = start(1.0);
+    let mut open = Client::connect(sim.addr());
+    open.status();
+    sim.refuse_connections(ms(600));
+    let refused_at = Instant::now();
+    assert!(open.closed_within(ms(5000)), "an open connection is closed");
+    let mut refused = Client::connect(sim.addr());
+    assert!(
+        refused.closed_within(ms(5000)),
+        "a new one is closed at once"
+    );
+    assert!(wait_until(ms(2000), || sim.connections() == 0));
+    assert!(sim.faults().refuse_connections_until.is_some());
+    std::thread::sleep(ms(700).saturating_sub(refused_at.elapsed()));
+    let mut later = Client::connect(sim.addr());
+    later.status();
+    assert_eq!(
+        sim.requests().len(),
+        2,
+        "nothing was read from the refused one"
+    );
+}
+
+/// The field works from the start too, without the convenience method.
+#[test]
+fn refusing_connections_from_the_start() {
+    let sim = start_faulty(Faults {
+        refuse_connections_until: Some(Instant::now() + ms(300)),
+        ..Faults::default()
+    });
+    let mut refused = Client::connect(sim.addr());
+    assert!(refused.closed_within(ms(5000)));
+    std::thread::sleep(ms(400));
+    Client::connect(sim.addr()).status();
+}
+
+/// The next N soft emergency stops are answered with ErrorCode 1 and leave the motion state
+/// alone; the one after them works.
+#[test]
+fn refused_estops_fail_and_change_nothing() {
+    use x30_panel::proto::codes::{CommandResult, MotionState};
+    use x30_panel::proto::message::{MotionCommand, Speed};
+    let sim = start_faulty(Faults {
+        refuse_estops: 2,
+        ..Faults::default()
+    });
+    let mut client = Client::connect(sim.addr());
+    client.motion(MotionCommand::Forward(Speed::Default));
+    for left in [1, 0] {
+        let ack = client.motion(MotionCommand::SoftEmergencyStop);
+        assert_eq!(ack.result, CommandResult::Failure);
+        assert_eq!(ack.value, -1.0);
+        assert_eq!(client.status().motion_state, MotionState::Stepping);
+        assert_eq!(sim.faults().refuse_estops, left);
+    }
+    let ack = client.motion(MotionCommand::SoftEmergencyStop);
+    assert_eq!(ack.result, CommandResult::Success);
+    assert_eq!(client.status().motion_state, MotionState::SoftEmergencyStop);
+}

@@ -158,3 +158,77 @@ fn every_error_on_one_connection_in_a_row() {
     assert_eq!(answer.id, 4);
     assert!(matches!(answer.response, Response::Perception(_)));
 }
+
+/// A bare XML document, no header at all and no frame after it: answered after a short
+/// quiet time, once, and the connection goes on working.
+#[test]
+fn a_bare_xml_document_gets_error_code_1_without_a_frame_after_it() {
+    let sim = start(1.0);
+    let mut client = Client::connect(sim.addr());
+    client.send_raw(BODY.as_bytes());
+    // The helper's good request also shows no second Type 0 comes for the same bytes.
+    assert_request_error_then_working(&mut client, RequestErrorCode::HeaderMissing, 0);
+    let log = sim.requests();
+    assert_eq!(log.len(), 2, "{log:?}");
+    assert_eq!(log[0].id, None);
+    let error = log[0].error.as_deref().unwrap_or_default();
+    assert!(
+        error.contains(&format!("skipped: {}", BODY.len())),
+        "{error}"
+    );
+}
+
+/// Random bytes (without `EB`, so without a sync sequence or a piece of one) are a chunk
+/// without a header too, and a valid request after them on the same connection is answered.
+#[test]
+fn random_bytes_get_error_code_1_and_the_connection_stays_usable() {
+    let sim = start(1.0);
+    let mut client = Client::connect(sim.addr());
+    let mut seed: u32 = 0x2545_F491;
+    let noise: Vec<u8> = (0..300)
+        .map(|_| {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            match (seed >> 24) as u8 {
+                0xEB => 0,
+                b => b,
+            }
+        })
+        .collect();
+    client.send_raw(&noise);
+    assert_request_error_then_working(&mut client, RequestErrorCode::HeaderMissing, 0);
+    // Twice on the same connection: each chunk gets its own answer.
+    client.send_raw(&noise[..50]);
+    assert_request_error_then_working(&mut client, RequestErrorCode::HeaderMissing, 0);
+}
+
+/// Type 0 answers carry the message ID of the frame they are about whenever its header was
+/// read (all 16 bits of it), and 0 for bytes without a header.
+#[test]
+fn type_0_answers_echo_the_offending_frames_message_id() {
+    let sim = start(1.0);
+    let mut client = Client::connect(sim.addr());
+    let mut wrong_header = header(BODY.len() as u16, 0xBEEF, [0, 0, 0, 0, 0, 0, 0, 7]);
+    wrong_header.extend_from_slice(BODY.as_bytes());
+    let mut oversized = header((MAX_REQUEST_LEN + 1) as u16, 0xFFFF, [0; 8]);
+    oversized.extend(std::iter::repeat_n(b' ', MAX_REQUEST_LEN + 1));
+    let unknown_type = BODY.replace("<Type>1002</Type>", "<Type>77</Type>");
+    let cases = [
+        (wrong_header, RequestErrorCode::HeaderWrong, 0xBEEF),
+        (oversized, RequestErrorCode::LengthAbnormal, 0xFFFF),
+        (
+            raw_frame(0x8001, b"<Patrol"),
+            RequestErrorCode::ParseFailed,
+            0x8001,
+        ),
+        (
+            raw_frame(0x0100, unknown_type.as_bytes()),
+            RequestErrorCode::ParseFailed,
+            0x0100,
+        ),
+        (b"no header".to_vec(), RequestErrorCode::HeaderMissing, 0),
+    ];
+    for (bytes, code, id) in cases {
+        client.send_raw(&bytes);
+        assert_request_error_then_working(&mut client, code, id);
+    }
+}

@@ -8,15 +8,16 @@ use std::time::{Duration, Instant};
 use common::*;
 use x30_panel::proto::codes::{CommandResult, GaitState, MotionGait, MotionState};
 use x30_panel::proto::message::{MotionCommand, Speed};
+use x30_sim::robot::MOTION_TIMEOUT;
 
 fn ms(n: u64) -> Duration {
     Duration::from_millis(n)
 }
 
 /// Forward at 4 Hz moves along the heading at the default 0.5 m/s, reported as Speed; when
-/// the commands stop, the robot goes on for 500 ms and then stands still, still stepping.
+/// the commands stop, the robot goes on for 400 ms and then stands still, still stepping.
 #[test]
-fn motion_moves_the_pose_at_4hz_and_stops_500ms_after_the_last_command() {
+fn motion_moves_the_pose_at_4hz_and_stops_400ms_after_the_last_command() {
     let sim = start(1.0);
     let mut client = Client::connect(sim.addr());
     let first = Instant::now();
@@ -49,8 +50,8 @@ fn motion_moves_the_pose_at_4hz_and_stops_500ms_after_the_last_command() {
     );
     sleep(ms(300));
     assert_eq!(sim.snapshot().pose.x, stopped, "stands still");
-    // 0.5 m/s from the first command until 500 ms after the last.
-    let expected = 0.5 * (span + 0.5);
+    // 0.5 m/s from the first command until 400 ms after the last.
+    let expected = 0.5 * (span + MOTION_TIMEOUT.as_secs_f64());
     assert!(
         stopped > expected - 0.15 && stopped < expected + 0.15,
         "x = {stopped}, expected about {expected}"
@@ -60,6 +61,34 @@ fn motion_moves_the_pose_at_4hz_and_stops_500ms_after_the_last_command() {
     assert_eq!(status.speed, 0.0);
     assert_eq!(status.motion_state, MotionState::Stepping);
     assert!((f64::from(status.pos_x) - stopped).abs() < 1e-4);
+}
+
+/// The motion watchdog: repeats 250 ms apart (4 Hz) keep the robot walking; a gap of
+/// 600 ms, slower than the protocol's 3 Hz, stops it as Command 6 would.
+#[test]
+fn repeats_every_250ms_keep_walking_and_a_600ms_gap_stops() {
+    assert_eq!(MOTION_TIMEOUT, ms(400));
+    let sim = start(1.0);
+    let mut client = Client::connect(sim.addr());
+    client.motion(MotionCommand::Forward(Speed::Default));
+    let mut last = Instant::now();
+    for _ in 0..4 {
+        sleep(ms(250).saturating_sub(last.elapsed()));
+        let gap = last.elapsed();
+        assert!(
+            sim.snapshot().manual.is_some(),
+            "stopped after a gap of {gap:?}"
+        );
+        client.motion(MotionCommand::Forward(Speed::Default));
+        last = Instant::now();
+    }
+    sleep(ms(600).saturating_sub(last.elapsed()));
+    let stopped = sim.snapshot();
+    assert!(stopped.manual.is_none(), "still walking after 600 ms");
+    assert_eq!(stopped.motion_state, MotionState::Stepping);
+    assert_eq!(client.status().speed, 0.0);
+    sleep(ms(100));
+    assert_eq!(sim.snapshot().pose.x, stopped.pose.x, "stands still");
 }
 
 #[test]

@@ -3,8 +3,11 @@
 //! This is where the mistakes of existing clients (SPEC §6) are avoided:
 //! - bytes go through a [`FrameDecoder`], so split frames, several frames in one read and
 //!   garbage before a sync sequence are all handled, and the stream resynchronises;
-//! - answers are matched by message ID (from a [`MessageIds`] counter); frames with other
-//!   IDs are reported on stderr and skipped, never taken for the answer;
+//! - answers are matched to requests by the protocol core's [`Outstanding`]: by message ID
+//!   (from a [`MessageIds`] counter), and a Type 0 answer whose ID matches no outstanding
+//!   request answers the oldest one; frames that answer no request are reported on stderr
+//!   and skipped, never taken for the answer (late answers to requests given up on are
+//!   skipped quietly);
 //! - an answer of a Type this protocol version does not know is an error naming the Type,
 //!   not a stall;
 //! - every read has a timeout, so nothing waits forever unless the caller asks for it
@@ -18,7 +21,8 @@ use x30_panel::proto::codes::MessageType;
 use x30_panel::proto::frame::{
     self, EncodeError, FrameDecoder, FrameError, HEADER_LEN, MessageIds,
 };
-use x30_panel::proto::message::{MAX_REQUEST_LEN, Request, Response};
+use x30_panel::proto::message::{DecodeError, Decoded, MAX_REQUEST_LEN, Request, Response};
+use x30_panel::proto::outstanding::Outstanding;
 use x30_panel::proto::time::Timestamp;
 use x30_panel::proto::xml::writer::WriteError;
 
@@ -35,6 +39,15 @@ pub const MAX_FRAME_LEN: usize = 16 * 1024;
 
 /// The frame decoder used for every connection and for `decode`.
 pub type Decoder = FrameDecoder<MAX_FRAME_LEN>;
+
+/// Requests one connection may have written and not seen answered; beyond this the oldest
+/// is given up on. The commands wait for each answer before sending the next request, so
+/// this is ample.
+const MAX_OUTSTANDING: usize = 8;
+
+/// Message IDs of requests given up on that are remembered, so their late answers are
+/// skipped quietly; older ones, if they ever come, are reported as unsolicited.
+const MAX_ABANDONED: usize = 16;
 
 /// How long one read may block, so the caller's check (Ctrl-C, a moving deadline) runs
 /// often enough even when no deadline is near.
@@ -104,8 +117,14 @@ pub struct Connection {
     decoder: Box<Decoder>,
     timeout: Duration,
     frame_buf: Vec<u8>,
-    /// Message IDs of requests given up on: their late answers are expected, so they are
-    /// skipped without a warning.
+    /// Requests written and not answered yet, with their Types: which request an answer
+    /// answers is decided here (the protocol core's rule, Type 0 included).
+    outstanding: Outstanding<MessageType, MAX_OUTSTANDING>,
+    /// Answers (or the errors they amount to) that came for an outstanding request while
+    /// another was being waited for, by the request's message ID.
+    early: Vec<(u16, Result<Answer, Error>)>,
+    /// Message IDs of requests given up on (not outstanding): their late answers are
+    /// expected, so they are skipped without a warning.
     abandoned: Vec<u16>,
 }
 
@@ -207,6 +226,8 @@ impl Connection {
                         decoder: Box::default(),
                         timeout,
                         frame_buf: Vec::new(),
+                        outstanding: Outstanding::new(),
+                        early: Vec::new(),
                         abandoned: Vec::new(),
                     });
                 }
@@ -252,10 +273,8 @@ impl Connection {
             }
         });
         match result {
-            Err(_) if stopped => {
-                self.abandoned.push(message_id);
-                Ok(None)
-            }
+            // `wait` has given the request up: its late answer will be skipped quietly.
+            Err(_) if stopped => Ok(None),
             other => other.map(Some),
         }
     }
@@ -283,14 +302,26 @@ impl Connection {
             })
         });
         self.frame_buf = buf;
-        result.map(|()| message_id)
+        result?;
+        // The counter wrapped onto an ID given up on long ago: its answer is this one's now.
+        self.abandoned.retain(|&id| id != message_id);
+        self.early.retain(|(id, _)| *id != message_id);
+        if let Some((oldest, _)) = self.outstanding.push(message_id, request.message_type()) {
+            // Too many outstanding: the oldest was given up on to make room.
+            self.abandon(oldest);
+        }
+        Ok(message_id)
     }
 
-    /// Waits for the answer with `message_id` to a request of Type `message_type`.
+    /// Waits for the answer with `message_id` (from [`Connection::send`]) to a request of
+    /// Type `message_type`.
     ///
     /// `check` runs after every read (at least every 100 ms) with the time waited so far,
-    /// and says how long to go on. Frames with other message IDs and stream errors
-    /// (garbage, bad headers, oversize frames) are reported on stderr and skipped.
+    /// and says how long to go on. Answers to other outstanding requests are kept for their
+    /// own `wait`; other frames and stream errors (garbage, bad headers, oversize frames)
+    /// are reported on stderr and skipped. If the wait ends without the answer (the
+    /// deadline, [`Check::Abort`], a read error), the request is given up on: its late
+    /// answer is then skipped quietly.
     pub fn wait(
         &mut self,
         message_id: u16,
@@ -299,19 +330,30 @@ impl Connection {
     ) -> Result<Answer, Error> {
         let started = Instant::now();
         let ty = message_type.raw();
-        loop {
-            if let Some(answer) = self.next_answer(message_id, message_type)? {
-                return Ok(answer);
+        if let Some(at) = self.early.iter().position(|(id, _)| *id == message_id) {
+            return self.early.remove(at).1;
+        }
+        if !self.outstanding.contains(message_id) {
+            return Err(Error::Io {
+                context: format!("waiting for the answer to Type {ty}"),
+                source: io::Error::other(format!(
+                    "no request with message ID {message_id} is outstanding"
+                )),
+            });
+        }
+        let result = loop {
+            if let Some(answer) = self.next_answer(message_id, message_type) {
+                return answer;
             }
             let deadline = match check(started.elapsed()) {
-                Check::Abort(e) => return Err(e),
+                Check::Abort(e) => break Err(e),
                 Check::Wait(deadline) => deadline,
             };
             let mut slice = POLL;
             if let Some(deadline) = deadline {
                 let left = deadline.at.saturating_duration_since(Instant::now());
                 if left.is_zero() {
-                    return Err(Error::Timeout {
+                    break Err(Error::Timeout {
                         waited: deadline.after,
                         message_type: ty,
                     });
@@ -331,7 +373,7 @@ impl Connection {
             }
             match self.stream.read(spare) {
                 Ok(0) => {
-                    return Err(Error::Closed {
+                    break Err(Error::Closed {
                         message_type: ty,
                         source: None,
                     });
@@ -345,108 +387,176 @@ impl Connection {
                             | io::ErrorKind::Interrupted
                     ) => {}
                 Err(e) if is_disconnect(&e) => {
-                    return Err(Error::Closed {
+                    break Err(Error::Closed {
                         message_type: ty,
                         source: Some(e),
                     });
                 }
                 Err(source) => {
-                    return Err(Error::Io {
+                    break Err(Error::Io {
                         context: format!("reading the answer to Type {ty}"),
                         source,
                     });
                 }
             }
+        };
+        self.give_up(message_id);
+        result
+    }
+
+    /// Gives up on an outstanding request: it is no longer matched, and its late answer,
+    /// if one comes, is skipped without a warning.
+    fn give_up(&mut self, message_id: u16) {
+        if self.outstanding.remove(message_id).is_some() {
+            self.abandon(message_id);
         }
     }
 
-    /// Takes frames out of the decoder until the awaited answer turns up or more bytes
-    /// are needed.
+    /// Remembers a request given up on (no longer outstanding), so its late answer is
+    /// skipped quietly.
+    fn abandon(&mut self, message_id: u16) {
+        if self.abandoned.len() >= MAX_ABANDONED {
+            self.abandoned.remove(0);
+        }
+        self.abandoned.push(message_id);
+    }
+
+    /// Takes frames out of the decoder until the answer to the request with `message_id`
+    /// turns up (`Some`: the answer, or the error it amounts to) or more bytes are needed.
+    ///
+    /// Which request a frame answers is decided by [`Outstanding::answer`]: the request
+    /// with the frame's message ID, or, for a Type 0 answer whose ID matches none, the
+    /// oldest outstanding request. Answers to other outstanding requests are kept in
+    /// `early`.
     fn next_answer(
         &mut self,
         message_id: u16,
         message_type: MessageType,
-    ) -> Result<Option<Answer>, Error> {
-        let ty = message_type.raw();
+    ) -> Option<Result<Answer, Error>> {
         while let Some(item) = self.decoder.decode() {
-            let frame = match item {
-                Ok(frame) => frame,
+            let (answered, result) = match item {
+                Ok(frame) => {
+                    let id = frame.message_id;
+                    let decoded = Response::decode(frame.asdu);
+                    match self.match_frame(id, decoded, (message_id, message_type)) {
+                        Some(matched) => matched,
+                        None => continue,
+                    }
+                }
                 Err(FrameError::TooLong {
                     message_id: id,
                     asdu_len,
-                }) if id == message_id => {
-                    return Err(Error::BadAnswer {
-                        message_type: ty,
-                        message_id: id,
-                        detail: format!(
-                            "{asdu_len}-byte body, longer than the {}-byte limit; skipped",
-                            MAX_FRAME_LEN - HEADER_LEN
-                        ),
-                    });
+                }) if self.outstanding.contains(id) => {
+                    let ty = self.outstanding.remove(id).map_or(0, MessageType::raw);
+                    (
+                        id,
+                        Err(Error::BadAnswer {
+                            message_type: ty,
+                            message_id: id,
+                            detail: format!(
+                                "{asdu_len}-byte body, longer than the {}-byte limit; skipped",
+                                MAX_FRAME_LEN - HEADER_LEN
+                            ),
+                        }),
+                    )
                 }
                 Err(e) => {
                     warn(&stream_error_text(&e));
                     continue;
                 }
             };
-            let id = frame.message_id;
-            if let Some(at) = self.abandoned.iter().position(|&a| a == id) {
-                // The late answer to a request given up on: expected, not news.
-                self.abandoned.swap_remove(at);
-                continue;
+            if answered == message_id {
+                return Some(result);
             }
-            let decoded = Response::decode(frame.asdu);
-            match decoded {
-                // Type 0 is the robot saying it could not read a request. It cannot always
-                // know the request's message ID (ErrorCode 1: header missing), and only one
-                // request is outstanding on a connection, so it is this request's answer
-                // whatever its ID.
-                Ok(d) => {
-                    if let Response::RequestError(e) = d.message {
-                        if id != message_id {
-                            warn(&format!(
-                                "the Type 0 answer carries message ID {id}, not the request's {message_id}"
-                            ));
-                        }
-                        return Err(Error::TypeZero {
-                            code: e.code,
-                            message_type: ty,
-                        });
-                    }
-                    let got = d.message.message_type();
-                    if id != message_id {
-                        warn(&format!(
-                            "ignored an unsolicited Type {} frame with message ID {id} (waiting for the answer to Type {ty}, message ID {message_id})",
-                            got.raw()
-                        ));
-                        continue;
-                    }
-                    if got != message_type {
-                        return Err(Error::BadAnswer {
-                            message_type: ty,
-                            message_id: id,
-                            detail: format!("the answer has Type {}", got.raw()),
-                        });
-                    }
-                    return Ok(Some(Answer {
-                        message_id: id,
-                        time: d.time,
-                        response: d.message,
-                    }));
-                }
-                Err(e) if id == message_id => {
-                    return Err(Error::BadAnswer {
-                        message_type: ty,
-                        message_id: id,
-                        detail: e.to_string(),
-                    });
-                }
-                Err(e) => warn(&format!(
-                    "ignored an undecodable frame with message ID {id} (waiting for the answer to Type {ty}, message ID {message_id}): {e}"
-                )),
-            }
+            self.early.push((answered, result));
         }
-        Ok(None)
+        None
+    }
+
+    /// Matches one decoded (or undecodable) frame with message ID `id` to the outstanding
+    /// request it answers, taking that request out: `(its message ID, its result)`.
+    /// `None`: the frame answers no outstanding request and was skipped (quietly for the
+    /// late answer to a request given up on). `awaited` (the message ID and Type of the
+    /// request being waited for) is only for the warnings.
+    fn match_frame(
+        &mut self,
+        id: u16,
+        decoded: Result<Decoded<Response>, DecodeError>,
+        (awaited, awaited_type): (u16, MessageType),
+    ) -> Option<(u16, Result<Answer, Error>)> {
+        let request_error = match &decoded {
+            Ok(d) => match d.message {
+                Response::RequestError(e) => Some(e.code),
+                _ => None,
+            },
+            Err(_) => None,
+        };
+        // The late answer to a request given up on: expected, not news. An outstanding
+        // request with the same ID (the counter wrapped) comes first.
+        if !self.outstanding.contains(id)
+            && let Some(at) = self.abandoned.iter().position(|&a| a == id)
+        {
+            self.abandoned.remove(at);
+            return None;
+        }
+        let waiting_for = format!(
+            "waiting for the answer to Type {}, message ID {awaited}",
+            awaited_type.raw()
+        );
+        let d = match decoded {
+            Ok(d) => d,
+            Err(e) => {
+                if let Some(ty) = self.outstanding.remove(id) {
+                    return Some((
+                        id,
+                        Err(Error::BadAnswer {
+                            message_type: ty.raw(),
+                            message_id: id,
+                            detail: e.to_string(),
+                        }),
+                    ));
+                }
+                warn(&format!(
+                    "ignored an undecodable frame with message ID {id} ({waiting_for}): {e}"
+                ));
+                return None;
+            }
+        };
+        let got = d.message.message_type();
+        let Some((request_id, ty)) = self.outstanding.answer(id, request_error.is_some()) else {
+            warn(&format!(
+                "ignored an unsolicited Type {} frame with message ID {id} ({waiting_for})",
+                got.raw()
+            ));
+            return None;
+        };
+        let result = if let Some(code) = request_error {
+            // Type 0 is the robot saying it could not read a request. It cannot always
+            // know the request's message ID (ErrorCode 1: header missing); one whose ID
+            // matches no outstanding request answers the oldest.
+            if id != request_id {
+                warn(&format!(
+                    "the Type 0 answer carries message ID {id}, not the request's {request_id}"
+                ));
+            }
+            Err(Error::TypeZero {
+                code,
+                message_type: ty.raw(),
+            })
+        } else if got != ty {
+            Err(Error::BadAnswer {
+                message_type: ty.raw(),
+                message_id: id,
+                detail: format!("the answer has Type {}", got.raw()),
+            })
+        } else {
+            Ok(Answer {
+                message_id: id,
+                time: d.time,
+                response: d.message,
+            })
+        };
+        Some((request_id, result))
     }
 }
 
@@ -479,5 +589,201 @@ pub fn stream_error_text(e: &FrameError) -> String {
             MAX_FRAME_LEN - HEADER_LEN
         ),
         other => format!("stream error: {other:?}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::net::TcpListener;
+    use std::thread;
+    use x30_panel::proto::codes::RequestErrorCode;
+    use x30_panel::proto::message::{Battery, RequestError, RobotStatus};
+
+    /// Bound on every wait in these tests.
+    const LIMIT: Duration = Duration::from_secs(5);
+
+    /// A one-connection fake robot on loopback: reads `requests` request frames, then
+    /// writes `reply(their message IDs)` and keeps the connection open until the client
+    /// leaves.
+    fn fake_robot(
+        requests: usize,
+        reply: impl FnOnce(&[u16]) -> Vec<u8> + Send + 'static,
+    ) -> String {
+        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+        let addr = listener.local_addr().expect("addr").to_string();
+        thread::spawn(move || {
+            let Ok((mut stream, _)) = listener.accept() else {
+                return;
+            };
+            let _ = stream.set_read_timeout(Some(LIMIT));
+            let mut ids = Vec::new();
+            for _ in 0..requests {
+                let mut header = [0u8; HEADER_LEN];
+                if stream.read_exact(&mut header).is_err() {
+                    return;
+                }
+                let len = usize::from(u16::from_le_bytes([header[4], header[5]]));
+                let mut body = vec![0; len];
+                if stream.read_exact(&mut body).is_err() {
+                    return;
+                }
+                ids.push(u16::from_le_bytes([header[6], header[7]]));
+            }
+            let _ = stream.write_all(&reply(&ids));
+            let _ = stream.read(&mut [0u8; 1]);
+        });
+        addr
+    }
+
+    fn answer_frame(id: u16, response: &Response) -> Vec<u8> {
+        let mut body = vec![0; 4096];
+        let n = response
+            .encode(&Timestamp::DOCUMENT_EPOCH, &mut body)
+            .expect("encode");
+        let mut out = vec![0; HEADER_LEN + n];
+        let n = frame::encode(&mut out, id, &body[..n]).expect("frame");
+        out.truncate(n);
+        out
+    }
+
+    fn type_0(id: u16) -> Vec<u8> {
+        answer_frame(
+            id,
+            &Response::RequestError(RequestError {
+                code: RequestErrorCode::ParseFailed,
+            }),
+        )
+    }
+
+    fn status(id: u16) -> Vec<u8> {
+        answer_frame(id, &Response::Status(RobotStatus::UNAVAILABLE))
+    }
+
+    fn battery(id: u16) -> Vec<u8> {
+        answer_frame(
+            id,
+            &Response::Battery(Battery {
+                voltage: 55,
+                current: 120,
+                remaining_capacity: 1500,
+                nominal_capacity: 2004,
+                cycles: 3,
+                protected_state: x30_panel::proto::codes::ProtectedState::Normal,
+                battery_level: 42,
+                battery_temperature: None,
+            }),
+        )
+    }
+
+    fn connect(addr: &str) -> Connection {
+        Connection::connect(addr, LIMIT, LIMIT).expect("connect")
+    }
+
+    fn wait(conn: &mut Connection, id: u16, ty: MessageType) -> Result<Answer, Error> {
+        let deadline = Deadline::after(LIMIT);
+        conn.wait(id, ty, |_| Check::Wait(Some(deadline)))
+    }
+
+    /// Status then Battery outstanding; the robot answers with `reply(status ID, battery ID)`.
+    fn two_outstanding(
+        reply: impl FnOnce(u16, u16) -> Vec<u8> + Send + 'static,
+    ) -> (Result<Answer, Error>, Result<Answer, Error>) {
+        let addr = fake_robot(2, move |ids| reply(ids[0], ids[1]));
+        let mut conn = connect(&addr);
+        let first = conn.send(&Request::Status).expect("send");
+        let second = conn.send(&Request::Battery).expect("send");
+        let first = wait(&mut conn, first, MessageType::Status);
+        let second = wait(&mut conn, second, MessageType::Battery);
+        (first, second)
+    }
+
+    fn is_type_0_to(result: &Result<Answer, Error>, ty: MessageType) -> bool {
+        matches!(
+            result,
+            Err(Error::TypeZero { code: RequestErrorCode::ParseFailed, message_type })
+                if *message_type == ty.raw()
+        )
+    }
+
+    #[test]
+    fn answers_to_two_outstanding_requests_are_matched_in_any_order() {
+        let (first, second) = two_outstanding(|a, b| [battery(b), status(a)].concat());
+        assert!(
+            matches!(
+                first,
+                Ok(Answer {
+                    response: Response::Status(_),
+                    ..
+                })
+            ),
+            "{first:?}"
+        );
+        assert!(
+            matches!(second, Ok(Answer { response: Response::Battery(b), .. }) if b.battery_level == 42),
+            "{second:?}"
+        );
+    }
+
+    #[test]
+    fn type_0_with_the_second_requests_id_answers_the_second_not_the_first() {
+        let (first, second) = two_outstanding(|a, b| [type_0(b), status(a)].concat());
+        assert!(
+            matches!(
+                first,
+                Ok(Answer {
+                    response: Response::Status(_),
+                    ..
+                })
+            ),
+            "{first:?}"
+        );
+        assert!(is_type_0_to(&second, MessageType::Battery), "{second:?}");
+    }
+
+    #[test]
+    fn type_0_with_an_unknown_id_answers_the_oldest_outstanding_request() {
+        let (first, second) = two_outstanding(|a, b| {
+            [type_0(a.wrapping_add(b).wrapping_add(100)), battery(b)].concat()
+        });
+        assert!(is_type_0_to(&first, MessageType::Status), "{first:?}");
+        assert!(
+            matches!(
+                second,
+                Ok(Answer {
+                    response: Response::Battery(_),
+                    ..
+                })
+            ),
+            "{second:?}"
+        );
+    }
+
+    #[test]
+    fn late_type_0_to_a_request_given_up_on_is_skipped() {
+        let addr = fake_robot(2, |ids| [type_0(ids[0]), battery(ids[1])].concat());
+        let mut conn = connect(&addr);
+        let given_up = conn.send(&Request::Status).expect("send");
+        let stopped = conn.wait(given_up, MessageType::Status, |_| {
+            Check::Abort(Error::Interrupted(String::new()))
+        });
+        assert!(matches!(stopped, Err(Error::Interrupted(_))), "{stopped:?}");
+        let id = conn.send(&Request::Battery).expect("send");
+        let answer = wait(&mut conn, id, MessageType::Battery);
+        assert!(
+            matches!(answer, Ok(Answer { response: Response::Battery(_), message_id, .. }) if message_id == id),
+            "{answer:?}"
+        );
+    }
+
+    #[test]
+    fn waiting_for_a_request_never_sent_is_an_error_not_a_stall() {
+        let addr = fake_robot(0, |_| Vec::new());
+        let mut conn = connect(&addr);
+        let result = wait(&mut conn, 7, MessageType::Status);
+        assert!(
+            matches!(&result, Err(Error::Io { source, .. }) if source.to_string().contains("no request with message ID 7")),
+            "{result:?}"
+        );
     }
 }

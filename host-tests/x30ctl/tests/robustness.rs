@@ -4,14 +4,19 @@
 mod common;
 
 use std::io::{Read, Write};
-use std::net::TcpListener;
+use std::net::{TcpListener, TcpStream};
+use std::sync::mpsc;
 use std::thread;
 use std::time::Duration;
 
 use common::*;
-use x30_panel::proto::codes::{ErrorStatus, NavOutcome, RequestErrorCode};
+use x30_panel::proto::codes::{
+    CommandResult, ErrorStatus, MotionCommandCode, NavOutcome, RequestErrorCode,
+};
 use x30_panel::proto::frame::{self, HEADER_LEN};
-use x30_panel::proto::message::{NavResult, Request, RequestError, Response};
+use x30_panel::proto::message::{
+    MotionAck, MotionCommand, NavResult, Request, RequestError, Response,
+};
 use x30_panel::proto::time::Timestamp;
 use x30_sim::{Declaration, Faults};
 
@@ -453,4 +458,93 @@ fn move_ctrl_c_does_not_wait_for_a_slow_answer() {
     assert!(interrupted.elapsed() < Duration::from_secs(4));
     // The late answer to the abandoned forward command is expected, not reported.
     assert!(!run.stderr.contains("unsolicited"), "{}", run.stderr);
+}
+
+fn type_0_frame(id: u16) -> Vec<u8> {
+    encode_response(
+        id,
+        &Response::RequestError(RequestError {
+            code: RequestErrorCode::ParseFailed,
+        }),
+    )
+}
+
+#[test]
+fn type_0_with_an_id_no_request_has_answers_the_pending_request() {
+    // The robot could not read the header, so the ID is not the request's: the Type 0
+    // answer still answers the one request outstanding, and is not waited past.
+    let addr = fake_robot(|id| type_0_frame(id.wrapping_add(100)));
+    x30ctl_raw(&["--robot", &addr, "--timeout-ms", "5000", "status"])
+        .expect_code(3)
+        .stderr_has("robot answered Type 0: ErrorCode 4 (data parse failed)")
+        .stderr_has("the Type 0 answer carries message ID 100, not the request's 0");
+}
+
+/// Reads one request frame: its message ID and decoded request.
+fn read_request(stream: &mut TcpStream) -> Option<(u16, Request)> {
+    let mut header = [0u8; HEADER_LEN];
+    stream.read_exact(&mut header).ok()?;
+    let len = usize::from(u16::from_le_bytes([header[4], header[5]]));
+    let mut body = vec![0; len];
+    stream.read_exact(&mut body).ok()?;
+    let id = u16::from_le_bytes([header[6], header[7]]);
+    Some((id, Request::decode(&body).ok()?.message))
+}
+
+#[test]
+fn late_type_0_to_an_abandoned_move_command_is_skipped() {
+    // A robot that answers the forward command only after Ctrl-C has given it up, and
+    // then with a Type 0 carrying its ID, before answering zero velocity.
+    let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+    let addr = listener.local_addr().expect("addr").to_string();
+    let (first_in, first_seen) = mpsc::channel();
+    let robot = thread::spawn(move || {
+        let (mut stream, _) = listener.accept().ok()?;
+        stream.set_read_timeout(Some(RUN_LIMIT)).ok()?;
+        let forward = read_request(&mut stream)?;
+        first_in.send(()).ok()?;
+        let stop = read_request(&mut stream)?;
+        let ack = Response::Motion(
+            MotionCommandCode::ZeroVelocity,
+            MotionAck {
+                value: 0.0,
+                result: CommandResult::Success,
+            },
+        );
+        let mut bytes = type_0_frame(forward.0);
+        bytes.extend_from_slice(&encode_response(stop.0, &ack));
+        stream.write_all(&bytes).ok()?;
+        let _ = stream.read(&mut [0u8; 1]);
+        Some((forward, stop))
+    });
+    let moving = spawn_raw(
+        &[
+            "--robot",
+            &addr,
+            "--timeout-ms",
+            "5000",
+            "move",
+            "forward",
+            "--duration",
+            "10",
+        ],
+        None,
+    );
+    first_seen
+        .recv_timeout(Duration::from_secs(10))
+        .expect("the forward command reaches the robot");
+    moving.interrupt();
+    let run = moving.finish(RUN_LIMIT);
+    run.expect_code(130)
+        .stderr_has("move interrupted by Ctrl-C after 0 command(s); zero velocity sent");
+    assert!(!run.stderr.contains("Type 0"), "{}", run.stderr);
+    assert!(!run.stderr.contains("unsolicited"), "{}", run.stderr);
+    let ((forward_id, forward), (stop_id, stop)) =
+        robot.join().expect("robot thread").expect("two requests");
+    assert!(
+        matches!(forward, Request::Motion(m) if m.code() == MotionCommandCode::Forward),
+        "{forward:?}"
+    );
+    assert_eq!(stop, Request::Motion(MotionCommand::ZeroVelocity));
+    assert_ne!(forward_id, stop_id);
 }

@@ -9,7 +9,8 @@ use defmt::debug;
 use embassy_stm32::Peri;
 use embassy_stm32::gpio::{AnyPin, Input, Pull};
 use embassy_time::{Duration, Instant, Ticker};
-use x30_panel::app::Shared;
+use x30_panel::app::{Path, Shared};
+use x30_panel::config::EstopWiring;
 use x30_panel::panel::buttons::BUTTON_COUNT;
 use x30_panel::panel::{Button, ButtonDebouncers};
 
@@ -38,13 +39,25 @@ impl Buttons {
 /// leave the robot walking. While it waits, nothing is sampled; the levels are read again
 /// afterwards, so only the timing of a change in that moment is lost, never the change.
 #[embassy_executor::task]
-pub async fn button_task(buttons: Buttons, debounce: Duration, shared: &'static Shared) -> ! {
+pub async fn button_task(
+    buttons: Buttons,
+    debounce: Duration,
+    estop_wiring: EstopWiring,
+    shared: &'static Shared,
+) -> ! {
     let mut debouncers = ButtonDebouncers::new(debounce);
     let mut ticker = Ticker::every(POLL_PERIOD);
     loop {
+        shared.beat(Path::Buttons);
         let now = Instant::now();
         for (button, pin) in Button::ALL.into_iter().zip(&buttons.pins) {
-            if let Some(event) = debouncers.sample(button, pin.is_low(), now) {
+            let low = pin.is_low();
+            let pressed = if button == Button::Estop {
+                estop_wiring.pressed(low)
+            } else {
+                low
+            };
+            if let Some(event) = debouncers.sample(button, pressed, now) {
                 debug!(
                     "button {} {}",
                     button.name(),

@@ -1,11 +1,10 @@
 //! The three user LEDs, showing what the application publishes in `Shared::indicators`.
 
 use embassy_futures::select::{Either, select};
-use embassy_net::Stack;
 use embassy_stm32::gpio::Output;
 use embassy_time::{Instant, Timer};
 use x30_panel::app::Shared;
-use x30_panel::panel::indicators::BLINK_HALF_PERIOD;
+use x30_panel::panel::indicators::FAST_BLINK_HALF_PERIOD;
 use x30_panel::panel::{Indicators, Led};
 
 /// How long every LED lights at power-up.
@@ -35,12 +34,8 @@ impl Leds {
 }
 
 /// Runs a lamp test, then shows the latest indicators forever, blinking included.
-///
-/// The link LED stays dark while the board has no network (no Ethernet link, or no address
-/// yet), whatever the application says: the application only knows whether the robot answers,
-/// and "off — no network" is what DESIGN.md asks the green LED to show.
 #[embassy_executor::task]
-pub async fn led_task(mut leds: Leds, shared: &'static Shared, stack: Stack<'static>) -> ! {
+pub async fn led_task(mut leds: Leds, shared: &'static Shared) -> ! {
     // A dead LED is noticed at power-up rather than mistaken for "no fault" later.
     let all = Indicators {
         link: Led::On,
@@ -57,14 +52,10 @@ pub async fn led_task(mut leds: Leds, shared: &'static Shared, stack: Stack<'sta
     };
     loop {
         let now = Instant::now();
-        let mut shown = latest;
-        if !(stack.is_link_up() && stack.is_config_up()) {
-            shown.link = Led::Off;
-        }
-        leds.show(&shown, now);
-        // Blinking LEDs change at every half period; waking there also notices the network
-        // coming and going within a quarter of a second.
-        let half = BLINK_HALF_PERIOD.as_ticks().max(1);
+        leds.show(&latest, now);
+        // Blinking LEDs change at every half period of the fastest blink (the slower one's
+        // edges fall on those too).
+        let half = FAST_BLINK_HALF_PERIOD.as_ticks().max(1);
         let next_edge = Instant::from_ticks((now.as_ticks() / half + 1) * half);
         if let Either::First(new) = select(shared.indicators.wait(), Timer::at(next_edge)).await {
             latest = new;

@@ -5,21 +5,19 @@
 //! - **The executor stops** (a task that never yields, an interrupt storm, a HardFault or a
 //!   panic, which halts the core): nothing feeds the IWDG, and it resets the board after
 //!   [`TIMEOUT`].
-//! - **The application stops** while the executor runs (a wait that never ends, a deadlock
-//!   between the loops): the feeding task sees `Shared::heartbeat` stand still for
+//! - **The button path or the command path stops** while the executor runs (a wait that
+//!   never ends, a deadlock between the loops): the feeding task sees the progress counter
+//!   of the button task or of the command loop (`Shared::progress`) stand still for
 //!   [`STALL_LIMIT`] and stops feeding, so the IWDG resets the board [`TIMEOUT`] later.
 //!
 //! The stall limit is far longer than the IWDG's timeout because one legitimate step of the
-//! control loop may take that long: a connection attempt waits up to 5 s for an address and
-//! 5 s for the robot (`board::net`), and a request may wait 10 s for TCP to give up on a write
-//! and 1.5 s for the answer.
+//! command loop may take that long: a connection attempt waits up to 5 s for an address and
+//! 5 s for the robot (`board::net`); writes are bounded to 200 ms.
 //!
 //! The IWDG runs from the LSI oscillator (32 kHz nominal, 17–47 kHz over the STM32F767's
 //! range), so the real timeout is 1.0–2.8 s for the nominal 1.5 s; it is fed every
 //! [`FEED_PERIOD`], well inside the shortest. It is frozen while a debugger halts the core,
 //! so a breakpoint does not reset the board.
-
-use core::sync::atomic::Ordering;
 
 use defmt::{error, info, warn};
 use embassy_stm32::Peri;
@@ -27,13 +25,13 @@ use embassy_stm32::pac;
 use embassy_stm32::peripherals::IWDG;
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_time::{Duration, Instant, Timer};
-use x30_panel::app::Shared;
+use x30_panel::app::{Path, Shared};
 
 /// Nominal IWDG timeout: how long the board survives without a feed.
 pub const TIMEOUT: Duration = Duration::from_millis(1500);
 /// How often the IWDG is fed while the application makes progress.
 pub const FEED_PERIOD: Duration = Duration::from_millis(250);
-/// How long the application's heartbeat may stand still before the board is reset.
+/// How long a path's progress may stand still before the board is reset.
 pub const STALL_LIMIT: Duration = Duration::from_secs(20);
 
 /// The running watchdog, to hand to [`watchdog_task`].
@@ -53,28 +51,39 @@ pub fn start(iwdg: Peri<'static, IWDG>) -> Watchdog {
     Watchdog(dog)
 }
 
-/// Feeds the IWDG every [`FEED_PERIOD`] while the application's heartbeat moves.
+/// Feeds the IWDG every [`FEED_PERIOD`] while both the button path and the command path
+/// make progress.
 #[embassy_executor::task]
 pub async fn watchdog_task(mut dog: Watchdog, shared: &'static Shared) -> ! {
-    let mut beats = shared.heartbeat.load(Ordering::Relaxed);
-    // The application has not started yet; its set-up counts as progress.
-    let mut last_progress = Instant::now();
+    let paths = [Path::Buttons, Path::Commands];
+    let mut seen = paths.map(|path| shared.progress(path));
+    // Nothing has started yet; the set-up counts as progress.
+    let mut last_progress = [Instant::now(); 2];
     let mut stalled = false;
     loop {
         let now = Instant::now();
-        let latest = shared.heartbeat.load(Ordering::Relaxed);
-        if latest != beats {
-            beats = latest;
-            last_progress = now;
+        for ((path, seen), last) in paths.iter().zip(&mut seen).zip(&mut last_progress) {
+            let latest = shared.progress(*path);
+            if latest != *seen {
+                *seen = latest;
+                *last = now;
+            }
         }
-        if now.saturating_duration_since(last_progress) < STALL_LIMIT {
-            dog.0.pet();
-        } else if !stalled {
-            stalled = true;
-            error!(
-                "application stalled for {} s: letting the watchdog reset the board",
-                STALL_LIMIT.as_secs()
-            );
+        let stuck = paths
+            .iter()
+            .zip(&last_progress)
+            .find(|(_, last)| now.saturating_duration_since(**last) >= STALL_LIMIT);
+        match stuck {
+            None => dog.0.pet(),
+            Some((path, _)) if !stalled => {
+                stalled = true;
+                error!(
+                    "{} path stalled for {} s: letting the watchdog reset the board",
+                    path,
+                    STALL_LIMIT.as_secs()
+                );
+            }
+            Some(_) => {}
         }
         Timer::after(FEED_PERIOD).await;
     }

@@ -1,7 +1,7 @@
 //! QEMU `mps2-an386` (Cortex-M4F at 25 MHz): the virtual panel.
 //!
 //! - **Network**: the LAN9118 ([`lan9118`]) under embassy-net, DHCP (QEMU's user networking
-//!   gives 10.0.2.15), two TCP links to the robot ([`super::net`]).
+//!   gives 10.0.2.15), three TCP connections to the robot ([`super::net`]).
 //! - **Time**: two CMSDK timers ([`time`]).
 //! - **Buttons**: text lines on UART0 ([`uart`], `-serial stdio`): `+NAME` press, `-NAME`
 //!   release (`x30_panel::panel::virtual_panel`).
@@ -19,27 +19,20 @@ pub mod uart;
 
 use embassy_executor::Spawner;
 use embassy_net::{Runner, Stack, StackResources};
-use embassy_time::{Duration, Instant};
+use embassy_time::Instant;
 use log::{LevelFilter, error, info, warn};
-use static_cell::StaticCell;
+use static_cell::{ConstStaticCell, StaticCell};
 use x30_panel::app::{self, Shared};
-use x30_panel::client::{Backoff, Link, RX_BUF, TX_BUF};
 use x30_panel::config::{Config, RobotAddress, parse_robot};
 use x30_panel::panel::virtual_panel::LineReader;
 use x30_panel::panel::{Indicators, Led};
 
 use self::lan9118::Lan9118;
 use self::uart::Uart0Rx;
-use super::net::{self, TcpTransport};
+use super::net::{self, LinkBuffers, SOCKETS, SocketBuffers};
 
 /// The board's Ethernet address: locally administered (0x02), "X30" and a 1.
 pub const MAC: [u8; 6] = [0x02, 0x00, b'X', b'3', b'0', 0x01];
-
-/// Reconnection delays: quick after a blip, at most every 5 s while the robot is away.
-const BACKOFF: Backoff = Backoff::new(Duration::from_millis(250), Duration::from_secs(5));
-
-/// Sockets of the stack: the two links and DHCP.
-const SOCKETS: usize = 3;
 
 /// What the board and the application share.
 static SHARED: Shared = Shared::new();
@@ -47,18 +40,12 @@ static SHARED: Shared = Shared::new();
 /// The network stack's memory.
 static RESOURCES: StaticCell<StackResources<SOCKETS>> = StaticCell::new();
 
-/// One TCP socket's buffers: room for a whole answer and a whole request.
-struct SocketBuffers {
-    /// Received bytes not yet read.
-    rx: [u8; RX_BUF],
-    /// Written bytes not yet acknowledged.
-    tx: [u8; TX_BUF],
-}
-
-/// The control link's socket buffers.
-static CONTROL_BUFFERS: StaticCell<SocketBuffers> = StaticCell::new();
-/// The navigation link's socket buffers.
-static NAVIGATION_BUFFERS: StaticCell<SocketBuffers> = StaticCell::new();
+/// The socket buffers of the three connections to the robot.
+static LINK_BUFFERS: ConstStaticCell<LinkBuffers> = ConstStaticCell::new([
+    SocketBuffers::new(),
+    SocketBuffers::new(),
+    SocketBuffers::new(),
+]);
 
 /// Brings the board up and runs the panel, forever.
 pub async fn run(spawner: Spawner) -> ! {
@@ -84,43 +71,16 @@ pub async fn run(spawner: Spawner) -> ! {
         RESOURCES.init(StackResources::new()),
         seed,
     );
-    let robot = net::endpoint(config.robot);
-    let control = CONTROL_BUFFERS.init(SocketBuffers {
-        rx: [0; RX_BUF],
-        tx: [0; TX_BUF],
-    });
-    let navigation = NAVIGATION_BUFFERS.init(SocketBuffers {
-        rx: [0; RX_BUF],
-        tx: [0; TX_BUF],
-    });
-    let mut control = Link::new(
-        TcpTransport::new(stack, robot, &mut control.rx, &mut control.tx),
-        BACKOFF,
-    );
-    let mut navigation = Link::new(
-        TcpTransport::new(stack, robot, &mut navigation.rx, &mut navigation.tx),
-        BACKOFF,
-    );
+    let mut links = net::links(stack, net::endpoint(config.robot), LINK_BUFFERS.take());
 
-    match network_task(runner) {
-        Ok(task) => spawner.spawn(task),
-        Err(e) => error!("cannot start the network task: {:?}", e),
-    }
-    match address_task(stack) {
-        Ok(task) => spawner.spawn(task),
-        Err(e) => error!("cannot start the address task: {:?}", e),
-    }
-    match led_task(&SHARED) {
-        Ok(task) => spawner.spawn(task),
-        Err(e) => error!("cannot start the LED task: {:?}", e),
-    }
-    match Uart0Rx::take().map(|uart| panel_task(uart, &SHARED)) {
-        Some(Ok(task)) => spawner.spawn(task),
-        Some(Err(e)) => error!("cannot start the virtual panel: {:?}", e),
-        None => error!("UART0 is already in use"),
-    }
+    // Each task is spawned once: a failure is a bug, and the panic stops the firmware.
+    spawner.spawn(network_task(runner).expect("network task"));
+    spawner.spawn(address_task(stack, &SHARED).expect("address task"));
+    spawner.spawn(led_task(&SHARED).expect("LED task"));
+    let uart = Uart0Rx::take().expect("UART0 is free");
+    spawner.spawn(panel_task(uart, &SHARED).expect("virtual panel task"));
 
-    app::run(&config, &mut control, &mut navigation, &SHARED).await
+    app::run(&config, &mut links, &SHARED).await
 }
 
 /// The log level: `X30_LOG` at build time (`error`, `warn`, `info`, `debug`, `trace`), else
@@ -170,17 +130,19 @@ async fn network_task(mut runner: Runner<'static, Lan9118>) -> ! {
     runner.run().await
 }
 
-/// Logs the board's address whenever it changes (DHCP lease, loss).
+/// Tells the application and the log whether the board has an address (DHCP lease, loss).
 #[embassy_executor::task]
-async fn address_task(stack: Stack<'static>) -> ! {
+async fn address_task(stack: Stack<'static>, shared: &'static Shared) -> ! {
     loop {
         stack.wait_config_up().await;
         match stack.config_v4() {
             Some(v4) => info!("network up: {}", v4.address),
             None => info!("network up"),
         }
+        shared.set_network(true);
         stack.wait_config_down().await;
         warn!("network down");
+        shared.set_network(false);
     }
 }
 
@@ -213,7 +175,7 @@ async fn panel_task(mut uart: Uart0Rx, shared: &'static Shared) -> ! {
     let mut lines = LineReader::new();
     loop {
         let byte = uart.read().await;
-        match lines.push(byte) {
+        match lines.push(byte, Instant::now()) {
             None | Some(Ok(None)) => {}
             Some(Ok(Some(event))) => {
                 info!(

@@ -4,10 +4,13 @@
 #![allow(dead_code)]
 
 use std::io::{BufRead, BufReader, Read, Write};
+use std::path::PathBuf;
 use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, OnceLock};
 use std::thread;
 use std::time::{Duration, Instant};
+
+use x30_sim::{Config, Pose, Simulator};
 
 /// The binary under test.
 pub const BIN: &str = env!("CARGO_BIN_EXE_x30-qemu");
@@ -276,4 +279,133 @@ pub fn wait_gone(pid: u32, limit: Duration) -> bool {
         thread::sleep(Duration::from_millis(10));
     }
     process_gone(pid)
+}
+
+// Booting the firmware against an in-process simulator, for the end-to-end tests and the
+// latency report.
+
+/// Longest the firmware may take from QEMU's start to `led link on` (DHCP, then TCP).
+pub const BOOT_LIMIT: Duration = Duration::from_secs(45);
+
+/// Longest one x30-qemu run may last; x30-qemu enforces it too (`--timeout-s`).
+pub const SESSION_LIMIT: Duration = Duration::from_secs(75);
+
+/// Longest anything asked of the panel may take to show at the robot.
+pub const REACTION: Duration = Duration::from_secs(10);
+
+/// The firmware ELF, built on first use; the error if it does not build. `X30_QEMU_FIRMWARE`
+/// names a ready ELF instead (one built elsewhere, such as another worktree).
+pub fn firmware() -> &'static Result<PathBuf, String> {
+    static ELF: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    ELF.get_or_init(|| {
+        if let Some(elf) = std::env::var_os("X30_QEMU_FIRMWARE") {
+            return Ok(PathBuf::from(elf));
+        }
+        let started = Instant::now();
+        let out = Command::new(BIN)
+            .arg("--build-only")
+            .output()
+            .map_err(|e| format!("cannot run x30-qemu --build-only: {e}"))?;
+        if !out.status.success() {
+            return Err(format!(
+                "x30-qemu --build-only failed ({})\n{}",
+                out.status,
+                String::from_utf8_lossy(&out.stderr)
+            ));
+        }
+        let elf = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim());
+        eprintln!(
+            "firmware {} ready in {:?}",
+            elf.display(),
+            started.elapsed()
+        );
+        Ok(elf)
+    })
+}
+
+/// Whether QEMU's Arm system emulator is on PATH.
+pub fn have_qemu() -> bool {
+    std::env::var_os("PATH").is_some_and(|path| {
+        std::env::split_paths(&path).any(|dir| dir.join("qemu-system-arm").is_file())
+    })
+}
+
+/// What every test holds while it runs: the turn to run QEMU, and the firmware.
+pub struct Turn {
+    _guard: MutexGuard<'static, ()>,
+    /// The firmware ELF to boot.
+    pub elf: PathBuf,
+}
+
+/// Takes this test's turn; `None` (after saying so) when QEMU is missing. A firmware that
+/// does not build fails the test.
+pub fn turn() -> Option<Turn> {
+    static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+    if !have_qemu() {
+        // Straight to the file descriptor: the test harness captures `println!`, and a
+        // skipped end-to-end test must show in the log, not pass unnoticed.
+        let _ = writeln!(std::io::stderr(), "SKIPPED: qemu-system-arm missing");
+        return None;
+    }
+    // A test that failed while holding the turn does not spoil the others'.
+    let guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    match firmware() {
+        Ok(elf) => Some(Turn {
+            _guard: guard,
+            elf: elf.clone(),
+        }),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+/// A simulator in real time on a free loopback port.
+pub fn simulator() -> Simulator {
+    Simulator::start(Config {
+        listen: "127.0.0.1:0".parse().expect("address"),
+        time_scale: 1.0,
+        ..Default::default()
+    })
+    .expect("simulator starts")
+}
+
+/// The virtual panel booted against `sim`, once its link LED is on.
+pub fn boot(turn: &Turn, sim: &Simulator) -> Running {
+    boot_for(turn, sim, SESSION_LIMIT)
+}
+
+/// [`boot`] for a session of up to `session`.
+pub fn boot_for(turn: &Turn, sim: &Simulator, session: Duration) -> Running {
+    let robot = sim.addr().to_string();
+    let elf = turn.elf.to_string_lossy().into_owned();
+    let limit = session.as_secs().to_string();
+    let panel = Running::start(&[
+        "--robot",
+        &robot,
+        "--firmware",
+        &elf,
+        "--timeout-s",
+        &limit,
+        "--grace-ms",
+        "300",
+    ]);
+    panel.expect_stdout(0, BOOT_LIMIT, "`led link on`", |l| l == "led link on");
+    panel
+}
+
+/// Ends the session and checks that the firmware never panicked.
+pub fn finish(panel: Running) {
+    let run = panel.finish(SESSION_LIMIT);
+    run.expect_code(0);
+    assert!(!run.stdout.contains("panic:"), "{run}");
+}
+
+/// Puts the simulated robot 15 m from the virtual panel's charging point, so that a
+/// navigation task to it runs for half a minute.
+pub fn far_from_dock(sim: &Simulator) {
+    sim.robot(|r| {
+        r.set_pose(Pose {
+            x: 20.0,
+            ..Default::default()
+        })
+    });
 }

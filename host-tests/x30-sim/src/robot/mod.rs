@@ -83,7 +83,8 @@ pub enum Reply {
     /// A navigation task was accepted: its answer comes when it ends.
     Later,
     /// A cancel (1004) ended a running task: first send the task's answer on the task's
-    /// connection, then, about 50 ms later, `answer` on the cancel's connection.
+    /// connection, then at once `answer` on the cancel's connection (one write when it is
+    /// the same connection).
     AfterTask {
         /// The cancelled task and its answer (ErrorCode 2, ErrorStatus 8962).
         task: EndedTask,
@@ -136,7 +137,7 @@ pub struct Pose {
 ///
 /// | Command | from | effect |
 /// |---|---|---|
-/// | 1, 2, 3, 4, 11, 12 | 2, 3, 4 | stepping (4), moving at the speed asked (−1: 0.5 m/s, 0.35 rad/s, 0.1 m/s) until 500 ms (real time) after the last one |
+/// | 1, 2, 3, 4, 11, 12 | 2, 3, 4 | stepping (4), moving at the speed asked (−1: 0.5 m/s, 0.35 rad/s, 0.1 m/s) until [`MOTION_TIMEOUT`] (400 ms, real time) after the last one |
 /// | 6 zero velocity | any | stops manual motion, keeps stepping; never fails |
 /// | 13 soft e-stop | any | 6; stops motion; a running task fails with 41766 |
 /// | 14 stop stepping | 4 (2, 3: no change) | 3 |
@@ -314,17 +315,7 @@ impl Robot {
             }),
             Request::Motion(command) => {
                 let ok = self.motion(command);
-                let value = match command.value() {
-                    MotionValue::Float(v) => v,
-                    MotionValue::Int(v) => v as f32,
-                };
-                Response::Motion(
-                    command.code(),
-                    MotionAck {
-                        value,
-                        result: result(ok),
-                    },
-                )
+                motion_answer(command, ok)
             }
             Request::Battery => Response::Battery(self.battery()),
             Request::Perception => Response::Perception(self.perception()),
@@ -810,6 +801,21 @@ impl Robot {
 fn finite(v: f64) -> f32 {
     let v = v as f32;
     if v.is_finite() { v } else { 0.0 }
+}
+
+/// The Type 2 answer to `command`: its Value echoed, and whether it succeeded.
+pub fn motion_answer(command: &MotionCommand, ok: bool) -> Response {
+    let value = match command.value() {
+        MotionValue::Float(v) => v,
+        MotionValue::Int(v) => v as f32,
+    };
+    Response::Motion(
+        command.code(),
+        MotionAck {
+            value,
+            result: result(ok),
+        },
+    )
 }
 
 fn result(ok: bool) -> CommandResult {

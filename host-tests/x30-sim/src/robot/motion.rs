@@ -8,12 +8,16 @@ use x30_panel::proto::message::{MotionCommand, Speed};
 use super::Pose;
 use x30_panel::proto::codes::MotionState;
 
-/// How long manual motion continues after the last translation or rotation command.
+/// How long manual motion continues after the last translation or rotation command: the
+/// motion watchdog.
 ///
-/// The robot expects those commands repeated at 3–5 Hz (SPEC §4.5) and stops when they
-/// cease. This is real time, not scaled by the time scale: it watches the client's sending
+/// The robot expects those commands repeated at 3–5 Hz (SPEC §4.5), that is at most 333 ms
+/// apart, and stops (as on Command 6) when they come slower. 400 ms allows a 3 Hz client
+/// some jitter while a gap longer than that, a client below the protocol's rate, stops the
+/// robot, so a client that repeats too slowly sees it stutter here rather than on a real
+/// robot. This is real time, not scaled by the time scale: it watches the client's sending
 /// rate, which does not speed up with the simulation.
-pub const MOTION_TIMEOUT: Duration = Duration::from_millis(500);
+pub const MOTION_TIMEOUT: Duration = Duration::from_millis(400);
 
 /// Simulated seconds from Command 15 (lie down) to lying down (state 5 → 0).
 pub const LIE_DOWN_TIME: f64 = 1.0;

@@ -81,13 +81,29 @@ fn forward_moves_until_the_watchdog_expires() {
     }
     robot.advance(ms(1000));
     assert!((robot.pose().x - 1.0).abs() < 1e-9, "{:?}", robot.pose());
-    // No command after t = 1 s: it keeps going until 1.5 s, then stops, still stepping.
+    // No command after t = 1 s: it keeps going until 1.4 s, then stops, still stepping.
     robot.advance(ms(3000));
-    assert!((robot.pose().x - 1.5).abs() < 1e-9, "{:?}", robot.pose());
+    assert!((robot.pose().x - 1.4).abs() < 1e-9, "{:?}", robot.pose());
     assert_eq!(robot.status().speed, 0.0);
     assert_eq!(robot.motion_state(), MotionState::Stepping);
     assert!(robot.snapshot().manual.is_none());
-    assert!(robot.snapshot().odometry > 1.49);
+    assert!(robot.snapshot().odometry > 1.39);
+}
+
+#[test]
+fn the_watchdog_allows_3hz_and_stops_after_a_longer_gap() {
+    let mut robot = Robot::new(1.0);
+    let forward = MotionCommand::Forward(Speed::Default);
+    // Every 333 ms (3 Hz) the robot keeps walking.
+    for t in [0, 333, 666, 999] {
+        motion(&mut robot, forward, ms(t));
+        assert!(robot.snapshot().manual.is_some(), "walking at {t} ms");
+    }
+    // A gap just over MOTION_TIMEOUT stops it, as Command 6 would.
+    robot.advance(ms(999) + MOTION_TIMEOUT + ms(1));
+    assert!(robot.snapshot().manual.is_none());
+    assert_eq!(robot.status().speed, 0.0);
+    assert_eq!(robot.motion_state(), MotionState::Stepping);
 }
 
 #[test]

@@ -14,6 +14,7 @@ use x30_panel::proto::message::{
     MotionAck, MotionCommand, NavPoint, NavResult, NavTask, NavTaskState, Request, Response,
     RobotStatus,
 };
+use x30_panel::proto::outstanding::Outstanding;
 use x30_panel::proto::time::Timestamp;
 use x30_sim::{Config, Simulator};
 
@@ -37,7 +38,11 @@ pub fn start_with(config: Config) -> Simulator {
 /// One answer frame, decoded.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Answer {
+    /// The frame's message ID.
     pub id: u16,
+    /// The request it answers, by the core's answer matcher: the one with `id`, or the
+    /// oldest for a Type 0 whose ID matches none; `None` if it answers none.
+    pub answers: Option<u16>,
     pub time: Timestamp,
     pub response: Response,
 }
@@ -64,6 +69,8 @@ pub struct Client {
     pub stream: TcpStream,
     decoder: Box<FrameDecoder<16384>>,
     ids: MessageIds,
+    /// Requests sent with [`Client::send`] and not answered yet.
+    outstanding: Outstanding<(), 64>,
     /// Stream errors the decoder reported while reading answers (garbage before frames).
     pub stream_errors: Vec<FrameError>,
 }
@@ -76,6 +83,7 @@ impl Client {
             stream,
             decoder: Box::new(FrameDecoder::new()),
             ids: MessageIds::new(),
+            outstanding: Outstanding::new(),
             stream_errors: Vec::new(),
         }
     }
@@ -84,6 +92,7 @@ impl Client {
     pub fn send(&mut self, request: &Request) -> u16 {
         let id = self.ids.next_id();
         self.send_with_id(id, request);
+        self.outstanding.push(id, ());
         id
     }
 
@@ -128,8 +137,14 @@ impl Client {
         let (id, body) = self.recv_frame_within(timeout)?;
         let decoded = Response::decode(&body)
             .unwrap_or_else(|e| panic!("{e:?} decoding {}", String::from_utf8_lossy(&body)));
+        let request_error = matches!(decoded.message, Response::RequestError(_));
+        let answers = self
+            .outstanding
+            .answer(id, request_error)
+            .map(|(request, ())| request);
         Some(Answer {
             id,
+            answers,
             time: decoded.time,
             response: decoded.message,
         })
@@ -145,7 +160,11 @@ impl Client {
     pub fn request(&mut self, request: &Request) -> Response {
         let id = self.send(request);
         let answer = self.recv();
-        assert_eq!(answer.id, id, "answer to another request: {answer:?}");
+        assert_eq!(
+            answer.answers,
+            Some(id),
+            "answer to another request: {answer:?}"
+        );
         answer.response
     }
 
@@ -215,7 +234,7 @@ impl Client {
         let answer = self
             .recv_within(timeout)
             .expect("the task's answer in time");
-        assert_eq!(answer.id, id);
+        assert_eq!(answer.answers, Some(id));
         match answer.response {
             Response::NavResult(r) => r,
             other => panic!("{other:?}"),
