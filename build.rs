@@ -1,7 +1,11 @@
 //! Build script: linker setup for the firmware binary.
 //!
-//! It does nothing for hosted targets, so host-tests/ can build the library without a linker
-//! script. For bare-metal targets it copies the selected board's memory layout into `OUT_DIR`,
+//! Every board keeps its memory layout in its own folder under `src/board/`, none at the
+//! package root: the linker looks for `memory.x` in its working directory (the package root)
+//! before the search path, so a layout there would override every other board's.
+//!
+//! It does nothing for hosted targets, so the host workspace (tools/) can build the library
+//! without a linker script. For bare-metal targets it copies the selected board's memory layout into `OUT_DIR`,
 //! where cortex-m-rt's `link.x` finds it as `memory.x` (and, for a board without a PAC, its
 //! interrupt names as `device.x`), and passes the linker scripts to the binary and to the
 //! on-target tests only (`rustc-link-arg-bins`, `rustc-link-arg-tests`), so the library and its
@@ -28,15 +32,15 @@ struct Board {
 const BOARDS: &[Board] = &[
     Board {
         feature: "board-nucleo-f767zi",
-        memory_x: "link/nucleo-f767zi-memory.x",
+        memory_x: "src/board/nucleo_f767zi/memory.x",
         // embassy-stm32's PAC provides its own.
         device_x: None,
         defmt: true,
     },
     Board {
         feature: "board-qemu-mps2-an386",
-        memory_x: "link/mps2-an386-memory.x",
-        device_x: Some("link/mps2-an386-device.x"),
+        memory_x: "src/board/qemu_mps2_an386/memory.x",
+        device_x: Some("src/board/qemu_mps2_an386/device.x"),
         defmt: false,
     },
 ];

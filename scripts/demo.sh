@@ -10,13 +10,13 @@ source scripts/setup.sh
 step() { printf '\n=== %s\n' "$*"; }
 
 step "firmware build (Nucleo-F767ZI) and size"
-cargo build --release
+cargo build-nucleo
 scripts/firmware-size.sh
 
 step "virtual panel: x30-sim, x30-qemu and the QEMU firmware"
-(cd host-tests && cargo build --release -p x30-sim -p x30-qemu)
+(cd tools && cargo build --release -p x30-sim -p x30-qemu)
 host=$(rustc -vV | sed -n 's/^host: //p')
-bin="host-tests/target/$host/release"
+bin="tools/target/$host/release"
 # X30_QEMU_FIRMWARE names a ready ELF (built elsewhere); otherwise x30-qemu builds it.
 elf=${X30_QEMU_FIRMWARE:-$("$bin/x30-qemu" --build-only)}
 echo "firmware: $elf"

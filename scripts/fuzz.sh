@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Builds the frame_xml fuzz target (host-tests/fuzz) and runs it with libFuzzer, on stable
+# Builds the frame_xml fuzz target (host-tests/fuzz, a member of the host workspace in
+# tools/) and runs it with libFuzzer, on stable
 # Rust: no nightly toolchain and no cargo-fuzz needed. libfuzzer-sys compiles libFuzzer's
 # C++ with the system C++ compiler (g++ or clang++; set CXX to choose).
 #
@@ -9,7 +10,7 @@
 # temporary directory, so host-tests/fuzz/corpus/ only changes when someone copies an input
 # into it on purpose. Crashing inputs are written to host-tests/fuzz/artifacts/frame_xml/
 # (ignored by git); the script then exits non-zero. Reproduce one with
-#   host-tests/fuzz/target/<host>/release/frame_xml <artifact>
+#   tools/target/fuzz/<host>/fuzz/frame_xml <artifact>
 set -euo pipefail
 
 DUR="${1:-30}"
@@ -31,10 +32,13 @@ export RUSTFLAGS="-Cpasses=sancov-module \
 -Cllvm-args=-sanitizer-coverage-trace-compares \
 --cfg fuzzing"
 
-cargo build --release --bin frame_xml
+# Its own target directory: the coverage flags would otherwise rebuild every dependency of
+# the host workspace's other builds, and theirs this one's.
+TARGET_DIR="$FUZZ_DIR/../../tools/target/fuzz"
+cargo build --profile fuzz -p x30-fuzz --bin frame_xml --target-dir "$TARGET_DIR"
 
 HOST="$(rustc -vV | sed -n 's/^host: //p')"
-BIN="$FUZZ_DIR/target/$HOST/release/frame_xml"
+BIN="$TARGET_DIR/$HOST/fuzz/frame_xml"
 ARTIFACTS="$FUZZ_DIR/artifacts/frame_xml"
 mkdir -p "$ARTIFACTS"
 

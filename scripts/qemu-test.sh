@@ -13,7 +13,7 @@ if ! command -v qemu-system-arm >/dev/null; then
     exit 127
 fi
 
-features=(--no-default-features --features board-qemu-mps2-an386)
+features=(--features board-qemu-mps2-an386)
 cargo build --release "${features[@]}"
 # A hung test fails instead of blocking CI; the smoke test takes a few seconds.
 X30_QEMU_TIMEOUT=${X30_QEMU_TIMEOUT:-120} \

@@ -3,6 +3,8 @@
 # explicit call gives a clear error if that is impossible.
 rustup target add thumbv7em-none-eabihf >/dev/null 2>&1 || true
 rustup component add rustfmt clippy >/dev/null 2>&1 || true
+# The firmware's linker (.cargo/config.toml): zero-cost stack overflow protection.
+command -v flip-link >/dev/null 2>&1 || cargo install --locked flip-link
 
 # apt_need PACKAGE COMMAND: installs PACKAGE when COMMAND is missing.
 apt_need() {

@@ -11,37 +11,40 @@ source scripts/setup.sh
 step() { printf '\n=== %s\n' "$*"; }
 
 step "format"
-cargo fmt --check
-(cd host-tests && cargo fmt --all --check)
-(cd host-tests/fuzz && cargo fmt --check)
-(cd tools/codec-size && cargo fmt --check)
+cargo fmt --all --check
+(cd tools && cargo fmt --all --check)
 
 step "clippy: firmware target (each feature set)"
-cargo clippy --release -- -D warnings
+cargo clippy --release --features board-nucleo-f767zi -- -D warnings
+cargo clippy --release --features board-qemu-mps2-an386 --bins --tests -- -D warnings
+cargo clippy --release --lib -- -D warnings
 cargo clippy --release --lib --features defmt,vendor-extensions -- -D warnings
-cargo clippy --release --lib --no-default-features -- -D warnings
-cargo clippy --release --no-default-features --features board-qemu-mps2-an386 --bins --tests -- -D warnings
+cargo clippy --release --lib --features serde,vendor-extensions -- -D warnings
+cargo clippy --release -p x30-codec-size --features robot-side -- -D warnings
 
 step "clippy: host"
-(cd host-tests && cargo clippy --workspace --all-targets -- -D warnings)
+(cd tools && cargo clippy --workspace --all-targets -- -D warnings)
 
 step "docs"
 RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --lib --features vendor-extensions
 
 step "firmware build (Nucleo-F767ZI)"
-cargo build --release
+cargo build-nucleo
 scripts/firmware-size.sh
 
 step "firmware build (QEMU mps2-an386) and on-target tests in QEMU"
-cargo build --release --no-default-features --features board-qemu-mps2-an386
+cargo build-qemu
 scripts/firmware-size.sh
 scripts/qemu-test.sh
 
-step "host tests (with the end-to-end tests: the QEMU firmware against x30-sim)"
-(cd host-tests && cargo test --workspace --all-targets)
+step "host tests of the core, with the firmware's protocol surface (no vendor-extensions)"
+(cd tools && cargo test -p x30-host-tests --all-targets)
+
+step "host tests of the tools (with the end-to-end tests: the QEMU firmware against x30-sim)"
+(cd tools && cargo test --workspace --all-targets --exclude x30-host-tests --exclude x30-fuzz)
 
 step "benchmark (zero allocations asserted; timings reported)"
-(cd host-tests && X30_BENCH_QUICK=1 cargo bench --bench codec)
+(cd tools && X30_BENCH_QUICK=1 cargo bench -p x30-host-tests --bench codec)
 
 step "fuzz (short run, must find nothing)"
 scripts/fuzz.sh "${X30_FUZZ_SECONDS:-30}"

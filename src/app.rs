@@ -1,7 +1,7 @@
 //! The application: the panel's logic driving three connections to the robot.
 //! Board-agnostic.
 //!
-//! The board hands over three [`Link`]s ([`Links`]) and a [`Shared`] with the button events
+//! The board hands over three [`Connection`]s ([`Connections`]) and a [`Shared`] with the button events
 //! it produces and the LED states it shows; [`run`] does the rest, forever, in five loops
 //! joined in one task (so they share the [`Panel`] through a `RefCell`, without locks):
 //!
@@ -33,9 +33,9 @@ use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Instant, Timer, with_timeout};
 
-use crate::client::{ClientError, Health, Link, RobotClock, Transport};
+use crate::client::{ClientError, Connection, Health, RobotClock, Transport};
 use crate::config::Config;
-use crate::panel::{ButtonEvent, Connection, ConnectionState, Indicators, Panel};
+use crate::panel::{ButtonEvent, ConnectionRole, ConnectionState, Indicators, NetworkState, Panel};
 use crate::proto::codes::MessageType;
 use crate::proto::message::{NavResult, Request, Response};
 
@@ -84,13 +84,18 @@ impl Shared {
     }
 
     /// The board's network came up (link and address) or went down.
-    pub fn set_network(&self, up: bool) {
-        self.network.store(up, Ordering::Relaxed);
+    pub fn set_network(&self, state: NetworkState) {
+        self.network
+            .store(state == NetworkState::Up, Ordering::Relaxed);
     }
 
     /// Whether the board has a network.
-    pub fn network_up(&self) -> bool {
-        self.network.load(Ordering::Relaxed)
+    pub fn network(&self) -> NetworkState {
+        if self.network.load(Ordering::Relaxed) {
+            NetworkState::Up
+        } else {
+            NetworkState::Down
+        }
     }
 
     /// Shows progress of `path`.
@@ -118,18 +123,18 @@ impl Default for Shared {
     }
 }
 
-/// The three connections to the robot, one per [`Connection`].
-pub struct Links<T: Transport> {
+/// The three connections to the robot, one per [`ConnectionRole`].
+pub struct Connections<T: Transport> {
     /// Commands: written without waiting for earlier answers.
-    pub commands: Link<T>,
+    pub commands: Connection<T>,
     /// Polls of the robot's state.
-    pub polls: Link<T>,
+    pub polls: Connection<T>,
     /// The navigation task's 1003.
-    pub navigation: Link<T>,
+    pub navigation: Connection<T>,
 }
 
 /// Runs the panel against the robot, forever.
-pub async fn run<T: Transport>(config: &Config, links: &mut Links<T>, shared: &Shared) -> ! {
+pub async fn run<T: Transport>(config: &Config, links: &mut Connections<T>, shared: &Shared) -> ! {
     let app = App {
         panel: RefCell::new(Panel::new(config)),
         shared,
@@ -139,7 +144,7 @@ pub async fn run<T: Transport>(config: &Config, links: &mut Links<T>, shared: &S
         wake_tasks: Signal::new(),
         wake_leds: Signal::new(),
     };
-    let Links {
+    let Connections {
         commands,
         polls,
         navigation,
@@ -182,8 +187,8 @@ impl App<'_> {
     }
 
     /// Reports a connection's state to the panel, and wakes the LEDs if it changed.
-    fn connection(&self, connection: Connection, state: ConnectionState) {
-        if self.panel(|p| p.connection(connection, state, Instant::now())) {
+    fn connection(&self, role: ConnectionRole, state: ConnectionState) {
+        if self.panel(|p| p.connection(role, state, Instant::now())) {
             self.wake_leds.signal(());
         }
     }
@@ -207,18 +212,18 @@ impl App<'_> {
 
     /// The command connection: connect, write what is due, match answers, watch for
     /// silence.
-    async fn command_loop<T: Transport>(&self, link: &mut Link<T>) -> ! {
+    async fn command_loop<T: Transport>(&self, conn: &mut Connection<T>) -> ! {
         let mut retry_at = Instant::now();
         loop {
             self.shared.beat(Path::Commands);
             if !self
-                .ensure_connected(link, Connection::Commands, &mut retry_at)
+                .ensure_connected(conn, ConnectionRole::Commands, &mut retry_at)
                 .await
             {
                 continue;
             }
             let now = Instant::now();
-            while let Some((id, sent)) = link.expire(now, REQUEST_TIMEOUT) {
+            while let Some((id, sent)) = conn.expire(now, REQUEST_TIMEOUT) {
                 warn!(
                     "no answer to Type {} Command {} (message {})",
                     sent.message_type.raw(),
@@ -227,29 +232,29 @@ impl App<'_> {
                 );
                 self.panel(|p| p.command_answered(Err(&ClientError::Timeout)));
             }
-            let health = link.health(now);
+            let health = conn.health(now);
             if health == Health::Silent {
                 warn!("the robot stopped answering commands: reconnecting");
-                retry_at = Instant::now() + link.give_up().await;
-                self.connection(Connection::Commands, ConnectionState::Connecting);
+                retry_at = Instant::now() + conn.give_up().await;
+                self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
             }
-            self.connection(Connection::Commands, state_of(health));
-            if !self.send_due(link, health).await {
-                retry_at = Instant::now() + link.reconnect_delay();
-                self.connection(Connection::Commands, ConnectionState::Connecting);
+            self.connection(ConnectionRole::Commands, state_of(health));
+            if !self.send_due(conn, health).await {
+                retry_at = Instant::now() + conn.reconnect_delay();
+                self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
             }
             let deadline = [
                 self.panel(|p| p.command_deadline()),
-                link.expiry(REQUEST_TIMEOUT),
-                link.health_deadline(),
+                conn.expiry(REQUEST_TIMEOUT),
+                conn.health_deadline(),
             ]
             .into_iter()
             .flatten()
             .fold(now + IDLE, Instant::min);
             match select3(
-                link.receive(),
+                conn.receive(),
                 self.wake_commands.wait(),
                 Timer::at(deadline),
             )
@@ -261,8 +266,8 @@ impl App<'_> {
                 }
                 Either3::First(Err(e)) => {
                     warn!("command connection lost: {:?}", e);
-                    retry_at = Instant::now() + link.reconnect_delay();
-                    self.connection(Connection::Commands, ConnectionState::Connecting);
+                    retry_at = Instant::now() + conn.reconnect_delay();
+                    self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 }
                 Either3::Second(()) | Either3::Third(()) => {}
             }
@@ -270,16 +275,15 @@ impl App<'_> {
     }
 
     /// Writes every command due now; false if the connection was lost doing so.
-    async fn send_due<T: Transport>(&self, link: &mut Link<T>, health: Health) -> bool {
-        let motion_allowed = health == Health::Answering;
-        while let Some(request) = self.panel(|p| p.next_command(Instant::now(), motion_allowed)) {
+    async fn send_due<T: Transport>(&self, conn: &mut Connection<T>, health: Health) -> bool {
+        while let Some(request) = self.panel(|p| p.next_command(Instant::now(), health)) {
             info!(
                 "command: Type {} Command {}",
                 request.message_type().raw(),
                 request.command()
             );
             self.wake_leds.signal(());
-            if let Err(e) = link.send(&request).await {
+            if let Err(e) = conn.send(&request).await {
                 self.panel(|p| p.command_answered(Err(&e)));
                 return false;
             }
@@ -287,23 +291,23 @@ impl App<'_> {
         true
     }
 
-    /// Opens `link` if it is closed and its retry is due; whether it is open. While it
+    /// Opens `conn` if it is closed and its retry is due; whether it is open. While it
     /// stays closed this waits (for the retry, at most [`IDLE`]) before returning.
     async fn ensure_connected<T: Transport>(
         &self,
-        link: &mut Link<T>,
-        connection: Connection,
+        conn: &mut Connection<T>,
+        role: ConnectionRole,
         retry_at: &mut Instant,
     ) -> bool {
-        if link.is_connected() {
+        if conn.is_connected() {
             return true;
         }
         if Instant::now() >= *retry_at {
-            self.connection(connection, ConnectionState::Connecting);
-            link.set_clock(self.clock.get());
-            match link.connect().await {
+            self.connection(role, ConnectionState::Connecting);
+            conn.set_clock(self.clock.get());
+            match conn.connect().await {
                 Ok(()) => {
-                    self.connection(connection, ConnectionState::Open);
+                    self.connection(role, ConnectionState::Open);
                     return true;
                 }
                 Err(retry_in) => *retry_at = Instant::now() + retry_in,
@@ -314,11 +318,11 @@ impl App<'_> {
     }
 
     /// The poll connection: one poll at a time, when due.
-    async fn poll_loop<T: Transport>(&self, link: &mut Link<T>) -> ! {
+    async fn poll_loop<T: Transport>(&self, conn: &mut Connection<T>) -> ! {
         let mut retry_at = Instant::now();
         loop {
             if !self
-                .ensure_connected(link, Connection::Polls, &mut retry_at)
+                .ensure_connected(conn, ConnectionRole::Polls, &mut retry_at)
                 .await
             {
                 continue;
@@ -329,28 +333,28 @@ impl App<'_> {
                 select(self.wake_polls.wait(), Timer::at(due.min(now + IDLE))).await;
                 continue;
             };
-            match link.request(&poll, Some(REQUEST_TIMEOUT)).await {
-                Ok(response) => self.polled(link, &response),
+            match conn.request(&poll, Some(REQUEST_TIMEOUT)).await {
+                Ok(response) => self.polled(conn, &response),
                 Err(e) if e.connection_usable() => {
                     warn!("poll failed: {:?}", e);
-                    if link.health(Instant::now()) == Health::Silent {
+                    if conn.health(Instant::now()) == Health::Silent {
                         warn!("the robot stopped answering polls: reconnecting");
-                        retry_at = Instant::now() + link.give_up().await;
-                        self.connection(Connection::Polls, ConnectionState::Connecting);
+                        retry_at = Instant::now() + conn.give_up().await;
+                        self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
                     }
                 }
                 Err(e) => {
                     warn!("poll connection lost: {:?}", e);
-                    retry_at = Instant::now() + link.reconnect_delay();
-                    self.connection(Connection::Polls, ConnectionState::Connecting);
+                    retry_at = Instant::now() + conn.reconnect_delay();
+                    self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
                 }
             }
         }
     }
 
     /// A poll's answer: into the panel, and the clock learned from it for the others.
-    fn polled<T: Transport>(&self, link: &Link<T>, response: &Response) {
-        self.clock.set(link.clock());
+    fn polled<T: Transport>(&self, conn: &Connection<T>, response: &Response) {
+        self.clock.set(conn.clock());
         self.panel(|p| p.poll_answered(response, Instant::now()));
         // A confirmed e-stop stops the repeats; the LEDs follow the status.
         self.wake_commands.signal(());
@@ -358,7 +362,7 @@ impl App<'_> {
     }
 
     /// The navigation connection: one task at a time, its connection held until the answer.
-    async fn navigation_loop<T: Transport>(&self, link: &mut Link<T>) -> ! {
+    async fn navigation_loop<T: Transport>(&self, conn: &mut Connection<T>) -> ! {
         loop {
             let Some(order) = self.panel(|p| p.take_task(Instant::now())) else {
                 self.wake_tasks.wait().await;
@@ -366,25 +370,25 @@ impl App<'_> {
                 self.wake_leds.signal(());
                 continue;
             };
-            link.set_clock(self.clock.get());
+            conn.set_clock(self.clock.get());
             // A fresh connection per task: one left idle may have died unnoticed.
-            if link.connect().await.is_err() {
+            if conn.connect().await.is_err() {
                 self.task_ended(order.id, Err(&ClientError::NotConnected));
                 continue;
             }
             // The connection may have taken a while: the task may be cancelled or stale.
             if !self.panel(|p| p.task_wanted(order.id, Instant::now())) {
                 info!("navigation task withdrawn before its 1003 went out");
-                link.disconnect().await;
+                conn.disconnect().await;
                 self.wake_leds.signal(());
                 continue;
             }
-            let end = match link.send(&Request::NavTask(order.task)).await {
+            let end = match conn.send(&Request::NavTask(order.task)).await {
                 Ok(message_id) => {
                     self.panel(|p| p.task_started(order.id, Instant::now()));
                     self.wake_polls.signal(());
                     self.wake_leds.signal(());
-                    self.task_answer(link, order.id, message_id).await
+                    self.task_answer(conn, order.id, message_id).await
                 }
                 Err(e) => Err(e),
             };
@@ -400,7 +404,7 @@ impl App<'_> {
                 Err(e) => self.task_ended(order.id, Err(&e)),
             }
             // The task is over (or lost track of, which closing stops too: 41802).
-            link.disconnect().await;
+            conn.disconnect().await;
         }
     }
 
@@ -410,23 +414,23 @@ impl App<'_> {
     /// so a robot that never answers cannot keep the next task from starting.
     async fn task_answer<T: Transport>(
         &self,
-        link: &mut Link<T>,
+        conn: &mut Connection<T>,
         id: u32,
         message_id: u16,
     ) -> Result<Response, ClientError> {
         loop {
             if !self.panel(|p| p.control().task_running(id)) {
-                return match with_timeout(CANCEL_GRACE, link.answer(message_id)).await {
+                return match with_timeout(CANCEL_GRACE, conn.answer(message_id)).await {
                     Ok(end) => end,
                     Err(_) => {
                         warn!("no answer to the cancelled task: closing its connection");
-                        link.disconnect().await;
+                        conn.disconnect().await;
                         Err(ClientError::Timeout)
                     }
                 };
             }
             if let Either::First(end) =
-                select(link.answer(message_id), self.wake_tasks.wait()).await
+                select(conn.answer(message_id), self.wake_tasks.wait()).await
             {
                 return end;
             }
@@ -446,7 +450,7 @@ impl App<'_> {
         loop {
             let now = Instant::now();
             let (indicators, next) = self.panel(|p| {
-                p.network(self.shared.network_up());
+                p.network(self.shared.network());
                 (p.indicators(now), p.indicators_deadline(now))
             });
             if shown != Some(indicators) {

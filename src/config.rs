@@ -40,10 +40,10 @@
 use embassy_time::Duration;
 
 use crate::proto::codes::{LightEffect, PointInfo};
-use crate::proto::message::{Light, MotionCommand, NavPoint, Speed};
+use crate::proto::message::{Direction, Light, MotionCommand, NavPoint, Speed};
 use crate::proto::xml::number::{parse_f32, parse_int};
 
-/// The robot's default `robot_server` address (SPEC §1).
+/// The robot's default `robot_server` address (docs/protocol.md, "Transport").
 pub const DEFAULT_ROBOT: RobotAddress = RobotAddress {
     ip: [192, 168, 1, 106],
     port: DEFAULT_PORT,
@@ -109,22 +109,29 @@ pub struct StaticNetwork {
     pub gateway: Option<[u8; 4]>,
 }
 
-/// The speed each motion button sends.
+/// The speed each motion button sends, per [`Direction`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct MotionSpeeds {
-    /// `forward`, m/s.
-    pub forward: Speed,
-    /// `backward`, m/s.
-    pub backward: Speed,
-    /// `turn-left`, rad/s.
-    pub turn_left: Speed,
-    /// `turn-right`, rad/s.
-    pub turn_right: Speed,
-    /// `strafe-left`, m/s.
-    pub strafe_left: Speed,
-    /// `strafe-right`, m/s.
-    pub strafe_right: Speed,
+pub struct MotionSpeeds([Speed; Direction::ALL.len()]);
+
+impl MotionSpeeds {
+    /// The robot's default speed in every direction.
+    pub const DEFAULT: Self = Self([Speed::Default; Direction::ALL.len()]);
+
+    /// The speed of `direction`.
+    pub fn get(&self, direction: Direction) -> Speed {
+        self.0
+            .get(direction as usize)
+            .copied()
+            .unwrap_or(Speed::Default)
+    }
+
+    /// Sets the speed of `direction`.
+    pub fn set(&mut self, direction: Direction, speed: Speed) {
+        if let Some(slot) = self.0.get_mut(direction as usize) {
+            *slot = speed;
+        }
+    }
 }
 
 /// How often the monitor asks the robot for each kind of state.
@@ -204,14 +211,7 @@ impl Default for Config {
         Self {
             robot: DEFAULT_ROBOT,
             network: Network::Dhcp,
-            speeds: MotionSpeeds {
-                forward: Speed::Default,
-                backward: Speed::Default,
-                turn_left: Speed::Default,
-                turn_right: Speed::Default,
-                strafe_left: Speed::Default,
-                strafe_right: Speed::Default,
-            },
+            speeds: MotionSpeeds::DEFAULT,
             lights: LightPresets::from_array(DEFAULT_LIGHTS),
             dock: None,
             polls: PollPeriods {
@@ -257,31 +257,11 @@ impl Config {
             r.problems.add(Variable::Ip);
             Network::Dhcp
         };
-        let s = d.speeds;
-        let speeds = MotionSpeeds {
-            forward: r.speed(Variable::SpeedForward, MotionCommand::Forward, s.forward),
-            backward: r.speed(Variable::SpeedBackward, MotionCommand::Backward, s.backward),
-            turn_left: r.speed(
-                Variable::SpeedTurnLeft,
-                MotionCommand::TurnLeft,
-                s.turn_left,
-            ),
-            turn_right: r.speed(
-                Variable::SpeedTurnRight,
-                MotionCommand::TurnRight,
-                s.turn_right,
-            ),
-            strafe_left: r.speed(
-                Variable::SpeedStrafeLeft,
-                MotionCommand::StrafeLeft,
-                s.strafe_left,
-            ),
-            strafe_right: r.speed(
-                Variable::SpeedStrafeRight,
-                MotionCommand::StrafeRight,
-                s.strafe_right,
-            ),
-        };
+        let mut speeds = d.speeds;
+        for direction in Direction::ALL {
+            let speed = r.speed(direction, d.speeds.get(direction));
+            speeds.set(direction, speed);
+        }
         let p = d.polls;
         let polls = PollPeriods {
             status: r.millis(Variable::PollStatus, 100, 60_000, p.status),
@@ -296,7 +276,8 @@ impl Config {
             lights: r.get(Variable::Lights, parse_lights).unwrap_or(d.lights),
             dock: r.get(Variable::Dock, parse_dock).or(d.dock),
             polls,
-            // 200..=333 ms is 3–5 Hz, the rate SPEC §4.5 requires.
+            // 200..=333 ms is 3–5 Hz, the rate the robot requires (docs/protocol.md, "Type 2:
+            // motion control").
             motion_repeat: r.millis(Variable::Repeat, 200, 333, d.motion_repeat),
             debounce: r.millis(Variable::Debounce, 1, 100, d.debounce),
             estop_wiring: r
@@ -337,15 +318,12 @@ impl<'a, F: Fn(Variable) -> Option<&'a str>> Reader<F> {
         value
     }
 
-    /// A motion button's speed, checked against the command's limits.
-    fn speed(
-        &mut self,
-        variable: Variable,
-        command: fn(Speed) -> MotionCommand,
-        default: Speed,
-    ) -> Speed {
-        self.get(variable, |text| parse_speed(text, command))
-            .unwrap_or(default)
+    /// A motion button's speed, checked against its direction's limits.
+    fn speed(&mut self, direction: Direction, default: Speed) -> Speed {
+        self.get(Variable::speed(direction), |text| {
+            parse_speed(text, direction)
+        })
+        .unwrap_or(default)
     }
 
     /// A period in milliseconds within `min..=max`.
@@ -447,6 +425,20 @@ variables! {
     EstopWiring = "X30_ESTOP_WIRING",
 }
 
+impl Variable {
+    /// The variable holding the speed of `direction`, such as `X30_SPEED_TURN_LEFT`.
+    pub const fn speed(direction: Direction) -> Self {
+        match direction {
+            Direction::Forward => Self::SpeedForward,
+            Direction::Backward => Self::SpeedBackward,
+            Direction::TurnLeft => Self::SpeedTurnLeft,
+            Direction::TurnRight => Self::SpeedTurnRight,
+            Direction::StrafeLeft => Self::SpeedStrafeLeft,
+            Direction::StrafeRight => Self::SpeedStrafeRight,
+        }
+    }
+}
+
 /// An unsigned decimal of plain digits (no sign, unlike the protocol's integers).
 fn unsigned<T: TryFrom<i64>>(text: &str) -> Option<T> {
     if text.is_empty() || !text.bytes().all(|b| b.is_ascii_digit()) {
@@ -497,14 +489,17 @@ pub fn parse_bool(text: &str) -> Option<bool> {
 }
 
 /// Parses a motion button's speed: `-1` or `default` for the robot's default, otherwise a
-/// decimal the document allows for `command` (for example 0..=1.5 for forward).
-pub fn parse_speed(text: &str, command: fn(Speed) -> MotionCommand) -> Option<Speed> {
+/// decimal the document allows for `direction` (for example 0..=1.5 for forward).
+pub fn parse_speed(text: &str, direction: Direction) -> Option<Speed> {
     let speed = if text.eq_ignore_ascii_case("default") {
         Speed::Default
     } else {
         Speed::from_wire(parse_f32(text.as_bytes()).ok()?)
     };
-    command(speed).validate().ok().map(|()| speed)
+    MotionCommand::Move(direction, speed)
+        .validate()
+        .ok()
+        .map(|()| speed)
 }
 
 /// Parses a whole number of milliseconds within `min..=max`.

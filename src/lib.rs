@@ -8,13 +8,23 @@
 //! holds the build-time settings.
 #![no_std]
 #![deny(unsafe_code)]
+// The library never panics: a panel must keep running, so failures are values, not aborts.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing,
+    clippy::unreachable,
+    clippy::todo,
+    clippy::unimplemented
+)]
 #![warn(missing_docs)]
 
 // Otherwise the mistake shows only at link time, as undefined `_defmt_*` symbols.
 #[cfg(all(feature = "defmt", not(target_os = "none")))]
 compile_error!(
-    "the `defmt` feature links only on bare-metal targets, and the default board feature turns \
-     it on: on the host, depend on x30-panel with `default-features = false`"
+    "the `defmt` feature links only on bare-metal targets, and the Nucleo board feature turns \
+     it on: on the host, depend on x30-panel without a board feature or `defmt`"
 );
 
 // First, so that every module below can use the logging macros.

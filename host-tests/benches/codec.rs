@@ -1,12 +1,13 @@
 //! Codec benchmark: our no_std XML codec against quick-xml + serde, and our tokenizer
 //! against `xmlparser`, on the two messages that matter most on the wire: a real robot's
-//! 1002 status answer (with the undocumented extra items of SPEC §5) and a full 1003
+//! 1002 status answer (with the undocumented extra items of docs/protocol.md, "Extra
+//! items") and a full 1003
 //! navigation request.
 //!
 //! Run it with
 //!
 //! ```text
-//! cd host-tests && cargo bench --bench codec -- --quick
+//! cd tools && cargo bench -p x30-host-tests --bench codec -- --quick
 //! ```
 //!
 //! Before any timing the binary checks, and panics if not:
@@ -100,7 +101,8 @@ fn allocations_per_op<R>(runs: usize, mut f: impl FnMut() -> R) -> f64 {
 
 /// A 1002 answer as a real robot sends it: 4-space indentation, floats with 8–9
 /// significant digits, and the undocumented items `AngleYaw`, `CurRuntime`, `SumRuntime`,
-/// `RTKState` and `MapUpdateState` between the documented ones (SPEC §5).
+/// `RTKState` and `MapUpdateState` between the documented ones (docs/protocol.md, "Extra
+/// items").
 const STATUS_1002: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 <PatrolDevice>
     <Type>1002</Type>

@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """Writes the seed corpus of the frame_xml fuzz target into corpus/frame_xml/.
 
-The seeds are the sample messages of the vendor document (x30-robot-server-protocol-v1.0.12,
-every Type, request and response, as printed there, quirks included), plus the variations
-real traffic shows (SPEC §5) and the stream situations the frame decoder must handle.
+The seeds are the sample messages of the vendor's protocol document (V1.0.12, every Type,
+request and response, as printed there, quirks included), plus the variations real traffic
+shows (docs/protocol.md, "Beyond the document") and the stream situations the frame
+decoder must handle.
 Frames are built here by hand, independently of the crate's encoder.
 
 Each file is one fuzz input: a mode byte, read sizes, then the byte stream (see the comment
@@ -61,7 +62,8 @@ NAV_ITEMS = [("Value", "100"), ("MapID", "1"), ("PosX", "0.0"), ("PosY", "0.0"),
 MOTORS = ["LeftFrontSway", "LeftFrontHip", "LeftFrontKnee", "RightFrontSway", "RightFrontHip", "RightFrontKnee",
           "LeftBackSway", "LeftBackHip", "LeftBackKnee", "RightBackSway", "RightBackHip", "RightBackKnee"]
 
-# The vendor document's samples, Type by Type (section 3 and 4 of SPEC.md).
+# The vendor document's samples, Type by Type (docs/protocol.md, "Type 0: request error" to
+# "Type 2101: relocalisation").
 VENDOR = {
     "req-1002-status": doc(1002, 1, T0, None, DQ_SPACE),
     "resp-0000-request-error": doc(0, 0, "0000-00-00 00:00:00", [("ErrorCode", "0")], DQ, "    "),
@@ -80,7 +82,8 @@ VENDOR = {
                                            ("BatteryLevel", "97"), ("BatteryTemperature", "0")], SQ),
     "req-2002-perception": doc(2002, 1, T0, None, SQ),
     "resp-2002-perception": doc(2002, 1, T0, [("ObsState", "0")], SQ),
-    # The document's light sample has non-integer and negative values (not valid, SPEC §4.8).
+    # The document's light sample has non-integer and negative values (not valid:
+    # docs/protocol.md, "Type 1101: indicator light").
     "req-1101-light-vendor-sample": doc(1101, 1, T0, [("Red", "0"), ("Green", "3.847"), ("Blue", "-6.127"),
                                                       ("PER", "0.082"), ("LUM", "3.109")], SQ, "    "),
     "req-1101-light": doc(1101, 1, T0, [("Red", "255"), ("Green", "128"), ("Blue", "0"), ("PER", "1"),
@@ -92,7 +95,8 @@ VENDOR = {
     "resp-1008-motor-temperatures": doc(1008, 1, T0, [(m, "0") for m in MOTORS], SQ, "    "),
 }
 
-# Other Type 2 commands (SPEC §4.5), including the vendor extensions 16–22.
+# Other Type 2 commands (docs/protocol.md, "Type 2: motion control"), including the vendor
+# extensions 16–22 ("Vendor extensions").
 MOTION = {
     "req-0002-switch-gait": doc(2, 20, T0, [("Value", "4")]),
     "resp-0002-switch-gait": doc(2, 20, T0, [("Value", "4"), ("ErrorCode", "0")]),
@@ -101,7 +105,7 @@ MOTION = {
     "req-0002-go-charging": doc(2, 21, T0, [("Value", "-1")]),
 }
 
-# What real robots and clients send (SPEC §5).
+# What real robots and clients send (docs/protocol.md, "Beyond the document").
 REAL = {
     "resp-1002-status-extra-items": doc(1002, 1, "2024-11-19 10:42:07", [
         ("MotionState", "4"), ("PosX", "12.345678"), ("PosY", "-3.0712891"), ("PosZ", "0.21"),
@@ -135,7 +139,8 @@ REAL = {
         ("Voltage", "54"), ("Current", "-1200"), ("RemainingCapacity", "1500"), ("NominalCapacity", "2004"),
         ("Cycles", "140"), ("ProtectedState", "1"), ("BatteryLevel", "74"),
         ("BatteryTemperature", "31.5")]).replace("\n", "\r\n"),
-    # Number forms a peer may send (SPEC §5: up to 8-9 significant digits; exponents, signs).
+    # Number forms a peer may send (up to 8-9 significant digits, exponents, signs:
+    # docs/protocol.md, "Numbers, times and codes" and "Extra items").
     "req-2101-number-forms": doc(2101, 1, T0, [("PosX", "1.5e3"), ("PosY", "-2.5E-4"), ("PosZ", "+0.0"),
                                                ("Yaw", " 7e+0 ")]),
     "resp-1008-long-floats": doc(1008, 1, T0, list(zip(MOTORS, [

@@ -6,9 +6,10 @@ mod common;
 use common::TokioTransport;
 use embassy_time::{Duration, Instant};
 use std::time::Duration as StdDuration;
-use x30_panel::app::{self, Links, Path, Shared};
-use x30_panel::client::{Backoff, Link};
+use x30_panel::app::{self, Connections, Path, Shared};
+use x30_panel::client::{Backoff, Connection};
 use x30_panel::config::Config;
+use x30_panel::panel::NetworkState;
 use x30_panel::panel::{Button, ButtonEvent, Indicators, Led};
 use x30_panel::proto::codes::{GaitState, MotionGait, MotionState, PointInfo};
 use x30_panel::proto::message::{MotionCommand, NavPoint, Request};
@@ -29,11 +30,11 @@ fn backoff() -> Backoff {
 }
 
 /// The three connections to `addr`.
-fn links(addr: std::net::SocketAddr) -> Links<TokioTransport> {
-    Links {
-        commands: Link::new(TokioTransport::new(addr), backoff()),
-        polls: Link::new(TokioTransport::new(addr), backoff()),
-        navigation: Link::new(TokioTransport::new(addr), backoff()),
+fn links(addr: std::net::SocketAddr) -> Connections<TokioTransport> {
+    Connections {
+        commands: Connection::new(TokioTransport::new(addr), backoff()),
+        polls: Connection::new(TokioTransport::new(addr), backoff()),
+        navigation: Connection::new(TokioTransport::new(addr), backoff()),
     }
 }
 
@@ -67,7 +68,7 @@ async fn with_app_config<R>(
     script: impl AsyncFnOnce(&Shared) -> R,
 ) -> R {
     let shared = Shared::new();
-    shared.set_network(true);
+    shared.set_network(NetworkState::Up);
     let mut links = links(sim.addr());
     tokio::select! {
         _ = app::run(config, &mut links, &shared) => unreachable!(),
@@ -706,8 +707,8 @@ async fn reconnection_waits_out_the_backoff_even_while_buttons_are_pressed() {
     let shared = Shared::new();
     // Attempts at 0, 100, 300 and 700 ms, then every 800 ms: 5 in 1.2 s.
     let backoff = Backoff::new(Duration::from_millis(100), Duration::from_millis(800));
-    let refused = |attempts| Link::new(Refused { attempts }, backoff);
-    let mut links = Links {
+    let refused = |attempts| Connection::new(Refused { attempts }, backoff);
+    let mut links = Connections {
         commands: refused(attempts.clone()),
         polls: refused(std::rc::Rc::new(std::cell::Cell::new(0))),
         navigation: refused(std::rc::Rc::new(std::cell::Cell::new(0))),
@@ -753,7 +754,8 @@ async fn stop_path_latencies(sim: &Simulator, shared: &Shared) -> [f64; 3] {
     [forward - pressed, zero - released, estop - estop_pressed]
 }
 
-/// Stops must reach the robot within this of the press (the bound; generous for a
+/// Stops must reach the robot within this of the press (the bound the stop paths are held
+/// to, docs/design.md "Stop paths"; generous for a
 /// shared machine, while a stop behind a slow answer would take the 1.2 s the answer takes).
 const STOP_BOUND: f64 = 0.3;
 
@@ -867,16 +869,9 @@ async fn estop_pressed_while_the_robot_refuses_connections_goes_out_first_when_i
             estop.is_some(),
             "Command 13 reaches the robot once it is back"
         );
-        let log = sim.requests();
-        let conn = log
-            .iter()
-            .find(|e| e.t >= back && e.message_type == Some(2))
-            .map(|e| e.conn)
+        let first = sim
+            .first_on_connection_of(|e| e.t >= back && e.message_type == Some(2))
             .expect("a command connection after the outage");
-        let first = log
-            .iter()
-            .find(|e| e.conn == conn)
-            .expect("its first request");
         assert_eq!(
             (first.message_type, first.command),
             (Some(2), Some(13)),

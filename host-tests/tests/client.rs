@@ -8,7 +8,7 @@ use embassy_time::{Duration, Instant};
 use std::io::{Read as _, Write as _};
 use std::net::{TcpListener, TcpStream};
 use std::thread;
-use x30_panel::client::{ANSWER_OVERDUE, Backoff, ClientError, Health, Link, SILENT_AFTER};
+use x30_panel::client::{ANSWER_OVERDUE, Backoff, ClientError, Connection, Health, SILENT_AFTER};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::frame::{self, FrameDecoder};
 use x30_panel::proto::message::*;
@@ -80,8 +80,8 @@ fn perception() -> Response {
     })
 }
 
-async fn connected(addr: std::net::SocketAddr) -> Link<TokioTransport> {
-    let mut link = Link::new(TokioTransport::new(addr), backoff());
+async fn connected(addr: std::net::SocketAddr) -> Connection<TokioTransport> {
+    let mut link = Connection::new(TokioTransport::new(addr), backoff());
     link.connect().await.expect("the peer accepts");
     link
 }
@@ -239,7 +239,7 @@ async fn failed_connects_back_off_exponentially_within_bounds() {
         .unwrap()
         .local_addr()
         .unwrap();
-    let mut link = Link::new(TokioTransport::new(addr), backoff());
+    let mut link = Connection::new(TokioTransport::new(addr), backoff());
     let mut delays = Vec::new();
     for _ in 0..6 {
         delays.push(link.connect().await.unwrap_err().as_millis());
@@ -462,7 +462,7 @@ async fn a_robot_that_drops_every_connection_at_once_is_retried_with_backoff() {
             drop(stream);
         }
     });
-    let mut link = Link::new(TokioTransport::new(addr), backoff());
+    let mut link = Connection::new(TokioTransport::new(addr), backoff());
     let mut delays = Vec::new();
     for _ in 0..3 {
         link.connect().await.expect("the peer accepts");

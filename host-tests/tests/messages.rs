@@ -1,4 +1,5 @@
-//! Every message of SPEC §4 in both directions: the vendor document's sample decoded with
+//! Every message of docs/protocol.md ("Message types" and the Type sections after it) in
+//! both directions: the vendor document's sample decoded with
 //! each value asserted, then encoded and decoded again, equal.
 
 // Expected floats are written exactly as a robot sends them (9 significant digits), not
@@ -69,7 +70,7 @@ fn encoder_writes_the_document_layout() {
         std::str::from_utf8(&buf[..n]).unwrap(),
         "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<PatrolDevice>\n  <Type>1002</Type>\n  <Command>1</Command>\n  <Time>2023-01-01 00:00:00</Time>\n  <Items/>\n</PatrolDevice>\n"
     );
-    let n = Request::Motion(MotionCommand::Forward(Speed::Default))
+    let n = Request::Motion(MotionCommand::Move(Direction::Forward, Speed::Default))
         .encode(&T0, &mut buf)
         .unwrap();
     assert_eq!(
@@ -319,7 +320,8 @@ fn nav_task_with_every_value_set() {
     assert_request_round_trip(&decoded);
 }
 
-/// Several `<Items>` blocks, `MapId` spelling, no declaration, tabs and comments (SPEC §5).
+/// Several `<Items>` blocks, `MapId` spelling, no declaration, tabs and comments
+/// (docs/protocol.md, "Beyond the document").
 #[test]
 fn nav_task_with_waypoints_as_real_clients_send_it() {
     let point = |value: i32, x: f32| {
@@ -465,7 +467,7 @@ fn motion_2_request_and_response() {
     );
     assert_eq!(
         decoded.message,
-        Request::Motion(MotionCommand::Forward(Speed::Default))
+        Request::Motion(MotionCommand::Move(Direction::Forward, Speed::Default))
     );
     assert_request_round_trip(&decoded);
 
@@ -498,13 +500,37 @@ fn motion_2_request_and_response() {
 #[test]
 fn motion_every_command() {
     let cases: Vec<(MotionCommand, i32, &str)> = vec![
-        (MotionCommand::Forward(Speed::Value(1.5)), 1, "1.5"),
-        (MotionCommand::Backward(Speed::Value(1.3)), 2, "1.3"),
-        (MotionCommand::TurnLeft(Speed::Value(0.45)), 3, "0.45"),
-        (MotionCommand::TurnRight(Speed::Default), 4, "-1"),
+        (
+            MotionCommand::Move(Direction::Forward, Speed::Value(1.5)),
+            1,
+            "1.5",
+        ),
+        (
+            MotionCommand::Move(Direction::Backward, Speed::Value(1.3)),
+            2,
+            "1.3",
+        ),
+        (
+            MotionCommand::Move(Direction::TurnLeft, Speed::Value(0.45)),
+            3,
+            "0.45",
+        ),
+        (
+            MotionCommand::Move(Direction::TurnRight, Speed::Default),
+            4,
+            "-1",
+        ),
         (MotionCommand::ZeroVelocity, 6, "-1"),
-        (MotionCommand::StrafeLeft(Speed::Value(0.1)), 11, "0.1"),
-        (MotionCommand::StrafeRight(Speed::Value(0.15)), 12, "0.15"),
+        (
+            MotionCommand::Move(Direction::StrafeLeft, Speed::Value(0.1)),
+            11,
+            "0.1",
+        ),
+        (
+            MotionCommand::Move(Direction::StrafeRight, Speed::Value(0.15)),
+            12,
+            "0.15",
+        ),
         (MotionCommand::SoftEmergencyStop, 13, "-1"),
         (MotionCommand::StopStepping, 14, "-1"),
         (MotionCommand::LieDown, 15, "-1"),
@@ -664,7 +690,8 @@ fn light_1101_request_and_response() {
     assert_response_round_trip(&ack);
 }
 
-/// The document's own 1101 sample has non-integer and negative values (SPEC §4.8): they
+/// The document's own 1101 sample has non-integer and negative values (docs/protocol.md,
+/// "Type 1101: indicator light"): they
 /// are not valid and must be rejected with the item named.
 #[test]
 fn light_document_sample_values_are_rejected() {
@@ -905,4 +932,37 @@ fn non_finite_floats_are_refused_by_name() {
         Request::Relocalize(pose).validate(),
         Err(ValidationError::NotFinite { item: "PosY" })
     );
+}
+
+#[test]
+fn commands_beyond_the_protocol_are_decoded_always_and_sent_only_with_the_feature() {
+    let beyond = [
+        MotionCommand::StandUp,
+        MotionCommand::ForceControl,
+        MotionCommand::StartStepping,
+        MotionCommand::BodyHeight(0.3),
+        MotionCommand::GoCharging,
+        MotionCommand::LeaveCharger,
+    ];
+    for command in beyond {
+        assert!(command.code().is_vendor_extension(), "{command:?}");
+        let request = Request::Motion(command);
+        let mut body = [0u8; 1024];
+        let n = request
+            .encode(&Timestamp::DOCUMENT_EPOCH, &mut body)
+            .unwrap();
+        let decoded = Request::decode(&body[..n]).unwrap().message;
+        assert_eq!(decoded, request, "decoded whatever the build");
+        let sendable = command.validate();
+        if SENDS_VENDOR_EXTENSIONS {
+            assert_eq!(sendable, Ok(()), "{command:?}");
+        } else {
+            assert_eq!(
+                sendable,
+                Err(ValidationError::VendorExtension),
+                "{command:?}"
+            );
+        }
+    }
+    assert!(!MotionCommand::ZeroVelocity.code().is_vendor_extension());
 }

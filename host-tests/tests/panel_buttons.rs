@@ -7,7 +7,7 @@ use panel_support::at;
 use x30_panel::config::Config;
 use x30_panel::panel::buttons::BUTTON_COUNT;
 use x30_panel::panel::{Button, ButtonDebouncers, ButtonEvent, Debouncer};
-use x30_panel::proto::message::{MotionCommand, Speed};
+use x30_panel::proto::message::{Direction, MotionCommand, Speed};
 
 const DEBOUNCE: Duration = Duration::from_millis(15);
 
@@ -51,7 +51,7 @@ fn the_first_six_are_motion_buttons() {
     }
     assert_eq!(
         Button::TurnRight.motion(&speeds),
-        Some(MotionCommand::TurnRight(Speed::Default))
+        Some(MotionCommand::Move(Direction::TurnRight, Speed::Default))
     );
 }
 

@@ -4,7 +4,7 @@
 use embassy_time::Duration;
 use x30_panel::config::*;
 use x30_panel::proto::codes::{LightEffect, PointInfo};
-use x30_panel::proto::message::{Light, MotionCommand, Speed};
+use x30_panel::proto::message::{Direction, Light, Speed};
 
 /// A configuration built from `(variable name, text)` pairs, as a build environment gives them.
 fn config(vars: &[(&str, &'static str)]) -> Config {
@@ -30,8 +30,8 @@ fn defaults_match_the_design() {
         }
     );
     assert_eq!(c.network, Network::Dhcp);
-    assert_eq!(c.speeds.forward, Speed::Default);
-    assert_eq!(c.speeds.strafe_right, Speed::Default);
+    assert_eq!(c.speeds.get(Direction::Forward), Speed::Default);
+    assert_eq!(c.speeds.get(Direction::StrafeRight), Speed::Default);
     assert_eq!(c.lights.as_slice(), &DEFAULT_LIGHTS);
     assert_eq!(c.lights[3].effect, LightEffect::Breathing);
     // No default charging point is safe to walk to.
@@ -129,28 +129,25 @@ fn cidr_and_switches() {
 #[test]
 fn speeds_within_each_commands_limits() {
     assert_eq!(
-        parse_speed("0.8", MotionCommand::Forward),
+        parse_speed("0.8", Direction::Forward),
         Some(Speed::Value(0.8))
     );
+    assert_eq!(parse_speed("-1", Direction::Forward), Some(Speed::Default));
     assert_eq!(
-        parse_speed("-1", MotionCommand::Forward),
+        parse_speed("default", Direction::TurnLeft),
         Some(Speed::Default)
     );
     assert_eq!(
-        parse_speed("default", MotionCommand::TurnLeft),
-        Some(Speed::Default)
-    );
-    assert_eq!(
-        parse_speed("1.5", MotionCommand::Forward),
+        parse_speed("1.5", Direction::Forward),
         Some(Speed::Value(1.5))
     );
     // Forward allows 1.5 m/s, backward only 1.3, strafing 0.15.
-    assert_eq!(parse_speed("1.4", MotionCommand::Backward), None);
-    assert_eq!(parse_speed("0.2", MotionCommand::StrafeLeft), None);
-    assert_eq!(parse_speed("0.5", MotionCommand::TurnRight), None);
-    assert_eq!(parse_speed("-0.5", MotionCommand::Forward), None);
-    assert_eq!(parse_speed("fast", MotionCommand::Forward), None);
-    assert_eq!(parse_speed("", MotionCommand::Forward), None);
+    assert_eq!(parse_speed("1.4", Direction::Backward), None);
+    assert_eq!(parse_speed("0.2", Direction::StrafeLeft), None);
+    assert_eq!(parse_speed("0.5", Direction::TurnRight), None);
+    assert_eq!(parse_speed("-0.5", Direction::Forward), None);
+    assert_eq!(parse_speed("fast", Direction::Forward), None);
+    assert_eq!(parse_speed("", Direction::Forward), None);
 }
 
 #[test]
@@ -251,9 +248,9 @@ fn variables_override_defaults() {
     ]);
     assert_eq!(c.robot.ip, [1, 2, 3, 4]);
     assert_eq!(c.robot.port, 30001);
-    assert_eq!(c.speeds.forward, Speed::Value(0.8));
-    assert_eq!(c.speeds.backward, Speed::Default);
-    assert_eq!(c.speeds.strafe_right, Speed::Value(0.1));
+    assert_eq!(c.speeds.get(Direction::Forward), Speed::Value(0.8));
+    assert_eq!(c.speeds.get(Direction::Backward), Speed::Default);
+    assert_eq!(c.speeds.get(Direction::StrafeRight), Speed::Value(0.1));
     assert_eq!(c.lights.len(), 1);
     let dock = c.dock.expect("the configured charging point");
     assert_eq!((dock.value, dock.map_id, dock.angle_yaw), (7, 3, 0.5));
@@ -321,8 +318,8 @@ fn invalid_values_keep_the_default_and_are_reported() {
     let d = Config::default();
     assert_eq!(c.robot, d.robot);
     assert_eq!(c.network, Network::Dhcp);
-    assert_eq!(c.speeds.forward, Speed::Default);
-    assert_eq!(c.speeds.turn_left, Speed::Value(0.3));
+    assert_eq!(c.speeds.get(Direction::Forward), Speed::Default);
+    assert_eq!(c.speeds.get(Direction::TurnLeft), Speed::Value(0.3));
     assert_eq!(c.lights, d.lights);
     assert_eq!(c.dock, d.dock);
     assert_eq!(c.polls, d.polls);

@@ -5,15 +5,19 @@ mod panel_support;
 
 use embassy_time::Duration;
 use panel_support::*;
+use x30_panel::client::Health;
 use x30_panel::config::{Config, DEFAULT_LIGHTS};
+use x30_panel::panel::ConnectionState;
+use x30_panel::panel::Outcome;
 use x30_panel::panel::control::{ESTOP_REPEAT, ONE_SHOT_QUEUE};
 use x30_panel::panel::{Button, Control, STALE_PRESS, TaskOrder, succeeded};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::*;
 
-const FORWARD: Request = Request::Motion(MotionCommand::Forward(Speed::Default));
-const BACKWARD: Request = Request::Motion(MotionCommand::Backward(Speed::Default));
-const TURN_LEFT: Request = Request::Motion(MotionCommand::TurnLeft(Speed::Default));
+const FORWARD: Request = Request::Motion(MotionCommand::Move(Direction::Forward, Speed::Default));
+const BACKWARD: Request = Request::Motion(MotionCommand::Move(Direction::Backward, Speed::Default));
+const TURN_LEFT: Request =
+    Request::Motion(MotionCommand::Move(Direction::TurnLeft, Speed::Default));
 const ZERO: Request = Request::Motion(MotionCommand::ZeroVelocity);
 const ESTOP: Request = Request::Motion(MotionCommand::SoftEmergencyStop);
 const LIE_DOWN: Request = Request::Motion(MotionCommand::LieDown);
@@ -119,12 +123,12 @@ fn estop_latch_a_press_while_disconnected_goes_out_first_when_the_connection_ope
     c.press(Button::Estop, 0);
     c.release(Button::Estop, 100);
     assert!(c.motion_locked());
-    assert_eq!(c.next_command(at(100), true), None);
+    assert_eq!(c.next_command(at(100), Health::Answering), None);
     assert_eq!(c.next_deadline(), None, "nothing to do while disconnected");
     // Presses of the outage that are still fresh wait behind it.
     c.press(Button::Stop, 4900);
     c.press(Button::LieDown, 4900);
-    c.connection(true);
+    c.connection(ConnectionState::Open);
     assert_eq!(drain(&mut c, at(5000)), [ESTOP, ZERO, LIE_DOWN]);
     assert_eq!(c.next_deadline(), Some(at(5250)));
     assert!(!forward_goes_out(&mut c, 5010), "motion is locked out");
@@ -134,13 +138,13 @@ fn estop_latch_a_press_while_disconnected_goes_out_first_when_the_connection_ope
 fn estop_latch_repeats_continue_across_command_failures_and_answers() {
     let mut c = latched();
     // Timed out or refused.
-    c.command_answered(false);
+    c.command_answered(Outcome::Failed);
     assert!(c.last_failed());
     assert_eq!(drain(&mut c, at(250)), [ESTOP]);
-    c.command_answered(false);
+    c.command_answered(Outcome::Failed);
     assert_eq!(drain(&mut c, at(500)), [ESTOP]);
     // The robot accepting Command 13 is no confirmation: only its status is.
-    c.command_answered(true);
+    c.command_answered(Outcome::Succeeded);
     assert_eq!(drain(&mut c, at(750)), [ESTOP]);
     assert!(c.estop_unconfirmed());
 }
@@ -148,16 +152,16 @@ fn estop_latch_repeats_continue_across_command_failures_and_answers() {
 #[test]
 fn estop_latch_repeats_continue_across_a_reconnect_and_go_out_at_once() {
     let mut c = latched();
-    c.connection(false);
-    assert_eq!(c.next_command(at(250), true), None);
+    c.connection(ConnectionState::Connecting);
+    assert_eq!(c.next_command(at(250), Health::Answering), None);
     // Back before the next repeat was due: the e-stop goes out at once all the same.
-    c.connection(true);
+    c.connection(ConnectionState::Open);
     assert_eq!(drain(&mut c, at(100)), [ESTOP]);
     assert_eq!(c.next_deadline(), Some(at(350)));
     // Back after a long outage.
-    c.connection(false);
+    c.connection(ConnectionState::Connecting);
     assert!(run(&mut c, at(100), at(5000)).is_empty());
-    c.connection(true);
+    c.connection(ConnectionState::Open);
     let sent = run(&mut c, at(5000), at(5500));
     assert_eq!(times_of(&sent, &ESTOP), [5000, 5250, 5500]);
 }
@@ -328,11 +332,11 @@ fn zero_velocity_goes_first_after_a_reconnect_that_cut_motion_and_the_button_nee
     let mut c = connected();
     c.press(Button::TurnLeft, 0);
     assert_eq!(drain(&mut c, at(0)), [TURN_LEFT]);
-    c.connection(false);
+    c.connection(ConnectionState::Connecting);
     assert_eq!(c.next_deadline(), None);
     assert!(run(&mut c, at(0), at(2000)).is_empty());
     c.press(Button::LieDown, 2000);
-    c.connection(true);
+    c.connection(ConnectionState::Open);
     assert_eq!(drain(&mut c, at(2000)), [ZERO, LIE_DOWN]);
     // The button stayed down, but it no longer drives.
     assert_eq!(c.active_motion(), None);
@@ -349,9 +353,9 @@ fn zero_velocity_after_an_outage_whose_release_was_lost() {
     let mut c = connected();
     c.press(Button::Forward, 0);
     assert_eq!(drain(&mut c, at(0)), [FORWARD]);
-    c.connection(false);
+    c.connection(ConnectionState::Connecting);
     c.release(Button::Forward, 100);
-    c.connection(true);
+    c.connection(ConnectionState::Open);
     assert_eq!(drain(&mut c, at(500)), [ZERO]);
 }
 
@@ -361,8 +365,8 @@ fn an_outage_while_idle_sends_nothing() {
     c.press(Button::Forward, 0);
     c.release(Button::Forward, 0);
     assert_eq!(drain(&mut c, at(0)), [ZERO]);
-    c.connection(false);
-    c.connection(true);
+    c.connection(ConnectionState::Connecting);
+    c.connection(ConnectionState::Open);
     assert_eq!(drain(&mut c, at(600)), []);
     assert_eq!(c.next_deadline(), None);
 }
@@ -413,11 +417,11 @@ fn motion_first_command_goes_out_at_the_press() {
     assert_eq!(c.next_deadline(), None);
     c.press(Button::TurnLeft, 1234);
     assert!(c.next_deadline().unwrap() <= at(1234));
-    assert_eq!(c.next_command(at(1234), true), Some(TURN_LEFT));
-    assert_eq!(c.next_command(at(1234), true), None);
+    assert_eq!(c.next_command(at(1234), Health::Answering), Some(TURN_LEFT));
+    assert_eq!(c.next_command(at(1234), Health::Answering), None);
     assert_eq!(c.next_deadline(), Some(at(1484)));
-    assert_eq!(c.next_command(at(1483), true), None);
-    assert_eq!(c.next_command(at(1484), true), Some(TURN_LEFT));
+    assert_eq!(c.next_command(at(1483), Health::Answering), None);
+    assert_eq!(c.next_command(at(1484), Health::Answering), Some(TURN_LEFT));
 }
 
 #[test]
@@ -434,18 +438,18 @@ fn motion_a_late_wake_up_sends_one_repeat_not_a_burst() {
 fn motion_not_allowed_skips_the_due_repeat_and_sends_no_burst_after() {
     let mut c = connected();
     c.press(Button::Forward, 0);
-    assert_eq!(c.next_command(at(0), true), Some(FORWARD));
+    assert_eq!(c.next_command(at(0), Health::Answering), Some(FORWARD));
     // The robot's answers are overdue: the repeat due at 250 is skipped...
-    assert_eq!(c.next_command(at(250), false), None);
+    assert_eq!(c.next_command(at(250), Health::Overdue), None);
     assert_eq!(c.next_deadline(), Some(at(500)));
     // ...and not sent late once motion is allowed again.
-    assert_eq!(c.next_command(at(300), true), None);
-    assert_eq!(c.next_command(at(500), true), Some(FORWARD));
+    assert_eq!(c.next_command(at(300), Health::Answering), None);
+    assert_eq!(c.next_command(at(500), Health::Answering), Some(FORWARD));
     // Overdue for a second: one repeat at the following period, not one per skipped one.
     for ms in [750, 1000, 1250] {
-        assert_eq!(c.next_command(at(ms), false), None, "{ms}");
+        assert_eq!(c.next_command(at(ms), Health::Overdue), None, "{ms}");
     }
-    assert_eq!(c.next_command(at(1300), true), None);
+    assert_eq!(c.next_command(at(1300), Health::Answering), None);
     assert_eq!(drain(&mut c, at(1500)), [FORWARD]);
 }
 
@@ -453,32 +457,36 @@ fn motion_not_allowed_skips_the_due_repeat_and_sends_no_burst_after() {
 fn motion_not_allowed_still_lets_stops_and_one_shots_out() {
     let mut c = connected();
     c.press(Button::Forward, 0);
-    assert_eq!(c.next_command(at(0), true), Some(FORWARD));
+    assert_eq!(c.next_command(at(0), Health::Answering), Some(FORWARD));
     c.press(Button::LieDown, 100);
     c.release(Button::Forward, 100);
-    assert_eq!(c.next_command(at(100), false), Some(ZERO));
-    assert_eq!(c.next_command(at(100), false), Some(LIE_DOWN));
+    assert_eq!(c.next_command(at(100), Health::Overdue), Some(ZERO));
+    assert_eq!(c.next_command(at(100), Health::Overdue), Some(LIE_DOWN));
     c.press(Button::Estop, 200);
-    assert_eq!(c.next_command(at(200), false), Some(ESTOP));
+    assert_eq!(c.next_command(at(200), Health::Overdue), Some(ESTOP));
 }
 
 #[test]
 fn motion_configured_speed_is_sent() {
     let mut config = Config::default();
-    config.speeds.forward = Speed::Value(0.8);
-    config.speeds.strafe_left = Speed::Value(0.12);
+    config.speeds.set(Direction::Forward, Speed::Value(0.8));
+    config.speeds.set(Direction::StrafeLeft, Speed::Value(0.12));
     let mut c = connected_with(&config);
     c.press(Button::Forward, 0);
     assert_eq!(
         drain(&mut c, at(0)),
-        [Request::Motion(MotionCommand::Forward(Speed::Value(0.8)))]
+        [Request::Motion(MotionCommand::Move(
+            Direction::Forward,
+            Speed::Value(0.8)
+        ))]
     );
     c.press(Button::StrafeLeft, 10);
     assert_eq!(
         drain(&mut c, at(10)),
-        [Request::Motion(MotionCommand::StrafeLeft(Speed::Value(
-            0.12
-        )))]
+        [Request::Motion(MotionCommand::Move(
+            Direction::StrafeLeft,
+            Speed::Value(0.12)
+        ))]
     );
 }
 
@@ -495,7 +503,7 @@ fn motion_every_motion_button_sends_its_command() {
     for (button, code) in cases {
         let mut c = connected();
         c.press(button, 0);
-        let Some(Request::Motion(command)) = c.next_command(at(0), true) else {
+        let Some(Request::Motion(command)) = c.next_command(at(0), Health::Answering) else {
             panic!("{button:?} sent no motion command");
         };
         assert_eq!(command.code().raw(), code, "{button:?}");
@@ -553,7 +561,7 @@ fn motion_presses_while_disconnected_are_dropped() {
     let mut c = Control::new(&Config::default());
     c.press(Button::Backward, 0);
     assert_eq!(c.active_motion(), None);
-    c.connection(true);
+    c.connection(ConnectionState::Open);
     assert!(run(&mut c, at(0), at(2000)).is_empty());
     c.release(Button::Backward, 2000);
     assert_eq!(drain(&mut c, at(2000)), []);
@@ -610,8 +618,8 @@ fn nothing_stale_presses_during_an_outage_go_stale() {
     let mut c = Control::new(&Config::default());
     c.press(Button::LieDown, 0);
     c.press(Button::Cancel, 0);
-    assert_eq!(c.next_command(at(0), true), None);
-    c.connection(true);
+    assert_eq!(c.next_command(at(0), Health::Answering), None);
+    c.connection(ConnectionState::Open);
     assert_eq!(drain(&mut c, at(1000)), []);
     assert!(c.last_failed());
 }
@@ -774,11 +782,11 @@ fn navigation_cancel_withdraws_an_ordered_task_and_sends_1004() {
 #[test]
 fn navigation_a_task_ends_with_its_answer() {
     let (mut c, order) = running_task();
-    c.task_ended(order.id, true);
+    c.task_ended(order.id, Outcome::Succeeded);
     assert!(!c.navigating());
     assert!(!c.last_failed());
     let (mut c, order) = running_task();
-    c.task_ended(order.id, false);
+    c.task_ended(order.id, Outcome::Failed);
     assert!(!c.navigating());
     assert!(c.last_failed(), "a failed or lost task is shown");
 }
@@ -791,7 +799,7 @@ fn navigation_the_end_of_an_older_task_does_not_end_the_current_one() {
     c.press(Button::Dock, 1100);
     let second = c.take_task(at(1100)).unwrap();
     // The cancelled task's 1003 is answered now.
-    c.task_ended(first.id, true);
+    c.task_ended(first.id, Outcome::Succeeded);
     assert!(c.navigating());
     assert!(c.task_wanted(second.id, at(1100)));
 }
@@ -802,7 +810,7 @@ fn navigation_dock_while_a_task_runs_is_dropped() {
     c.press(Button::Dock, 100);
     assert_eq!(c.take_task(at(100)), None);
     assert!(c.navigating());
-    c.task_ended(order.id, true);
+    c.task_ended(order.id, Outcome::Succeeded);
     c.press(Button::Dock, 200);
     assert!(c.take_task(at(200)).is_some());
 }
@@ -979,7 +987,7 @@ fn light_cycles_through_the_presets() {
     let lights: Vec<_> = (0..5)
         .map(|i| {
             c.press(Button::Light, i * 100);
-            match c.next_command(at(i * 100), true) {
+            match c.next_command(at(i * 100), Health::Answering) {
                 Some(Request::Light(light)) => light,
                 other => panic!("{other:?}"),
             }
@@ -994,9 +1002,9 @@ fn light_cycles_through_the_presets() {
 fn command_answers_set_and_clear_the_failure() {
     let mut c = connected();
     assert!(!c.last_failed());
-    c.command_answered(false);
+    c.command_answered(Outcome::Failed);
     assert!(c.last_failed());
-    c.command_answered(true);
+    c.command_answered(Outcome::Succeeded);
     assert!(!c.last_failed());
 }
 
@@ -1014,9 +1022,9 @@ fn last_sent_is_when_the_last_command_went_out() {
 fn connection_is_reported() {
     let mut c = Control::new(&Config::default());
     assert!(!c.connected());
-    c.connection(true);
+    c.connection(ConnectionState::Open);
     assert!(c.connected());
-    c.connection(false);
+    c.connection(ConnectionState::Connecting);
     assert!(!c.connected());
 }
 

@@ -6,22 +6,24 @@ mod panel_support;
 use embassy_time::Instant;
 use panel_support::*;
 use x30_panel::client::ClientError;
+use x30_panel::client::Health;
 use x30_panel::config::Config;
+use x30_panel::panel::NetworkState;
 use x30_panel::panel::indicators::FLASH;
-use x30_panel::panel::{Button, Connection, ConnectionState, Led, LinkState, Panel};
+use x30_panel::panel::{Button, ConnectionRole, ConnectionState, Led, LinkState, Panel};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::*;
 
-const FORWARD: Request = Request::Motion(MotionCommand::Forward(Speed::Default));
+const FORWARD: Request = Request::Motion(MotionCommand::Move(Direction::Forward, Speed::Default));
 const ESTOP: Request = Request::Motion(MotionCommand::SoftEmergencyStop);
 const LIE_DOWN: Request = Request::Motion(MotionCommand::LieDown);
 
 /// A panel with `config`, its network up and its command and poll connections open at 0.
 fn online_with(config: &Config) -> Panel {
     let mut p = Panel::new(config);
-    p.network(true);
-    p.connection(Connection::Commands, ConnectionState::Open, at(0));
-    p.connection(Connection::Polls, ConnectionState::Open, at(0));
+    p.network(NetworkState::Up);
+    p.connection(ConnectionRole::Commands, ConnectionState::Open, at(0));
+    p.connection(ConnectionRole::Polls, ConnectionState::Open, at(0));
     p
 }
 
@@ -32,7 +34,7 @@ fn online() -> Panel {
 
 /// Every command due at `now`, with motion allowed.
 fn commands(p: &mut Panel, now: Instant) -> Vec<Request> {
-    std::iter::from_fn(|| p.next_command(now, true)).collect()
+    std::iter::from_fn(|| p.next_command(now, Health::Answering)).collect()
 }
 
 /// Every poll due at `now`.
@@ -73,35 +75,35 @@ fn commands_and_polls_go_out_on_their_own_connections() {
 #[test]
 fn each_connection_waits_until_it_is_open() {
     let mut p = Panel::new(&Config::default());
-    p.network(true);
-    p.connection(Connection::Polls, ConnectionState::Open, at(0));
+    p.network(NetworkState::Up);
+    p.connection(ConnectionRole::Polls, ConnectionState::Open, at(0));
     p.press(Button::LieDown, 0);
     assert_eq!(p.command_deadline(), None);
     assert_eq!(commands(&mut p, at(0)), []);
     assert!(!polls(&mut p, at(0)).is_empty());
-    p.connection(Connection::Commands, ConnectionState::Open, at(100));
+    p.connection(ConnectionRole::Commands, ConnectionState::Open, at(100));
     assert_eq!(commands(&mut p, at(100)), [LIE_DOWN]);
     // Polls stop with their connection, and start at once when it is back.
-    p.connection(Connection::Polls, ConnectionState::Connecting, at(200));
+    p.connection(ConnectionRole::Polls, ConnectionState::Connecting, at(200));
     assert_eq!(p.poll_deadline(), None);
     assert_eq!(polls(&mut p, at(5000)), []);
-    p.connection(Connection::Polls, ConnectionState::Open, at(6000));
+    p.connection(ConnectionRole::Polls, ConnectionState::Open, at(6000));
     assert_eq!(p.poll_deadline(), Some(at(6000)));
 }
 
 #[test]
 fn connection_reports_whether_its_state_changed() {
     let mut p = Panel::new(&Config::default());
-    let commands = Connection::Commands;
+    let commands = ConnectionRole::Commands;
     assert!(!p.connection(commands, ConnectionState::Connecting, at(0)));
     assert!(p.connection(commands, ConnectionState::Open, at(0)));
     assert!(!p.connection(commands, ConnectionState::Open, at(10)));
     assert!(p.connection(commands, ConnectionState::NotAnswering, at(20)));
     assert!(p.connection(commands, ConnectionState::Connecting, at(30)));
-    assert!(p.connection(Connection::Polls, ConnectionState::Open, at(40)));
-    assert!(!p.connection(Connection::Polls, ConnectionState::Open, at(50)));
+    assert!(p.connection(ConnectionRole::Polls, ConnectionState::Open, at(40)));
+    assert!(!p.connection(ConnectionRole::Polls, ConnectionState::Open, at(50)));
     // The navigation connection does not show on the LEDs.
-    assert!(!p.connection(Connection::Navigation, ConnectionState::Open, at(60)));
+    assert!(!p.connection(ConnectionRole::Navigation, ConnectionState::Open, at(60)));
 }
 
 #[test]
@@ -109,10 +111,14 @@ fn a_command_connection_not_answering_holds_motion_back_without_dropping_it() {
     let mut p = online();
     p.press(Button::Forward, 0);
     assert_eq!(commands(&mut p, at(0)), [FORWARD]);
-    p.connection(Connection::Commands, ConnectionState::NotAnswering, at(100));
+    p.connection(
+        ConnectionRole::Commands,
+        ConnectionState::NotAnswering,
+        at(100),
+    );
     // The application allows no motion then.
-    assert_eq!(p.next_command(at(250), false), None);
-    p.connection(Connection::Commands, ConnectionState::Open, at(300));
+    assert_eq!(p.next_command(at(250), Health::Overdue), None);
+    p.connection(ConnectionRole::Commands, ConnectionState::Open, at(300));
     // Still open all along: no zero velocity, and the held button still drives.
     assert_eq!(commands(&mut p, at(300)), []);
     assert_eq!(commands(&mut p, at(500)), [FORWARD]);
@@ -123,9 +129,13 @@ fn a_command_connection_lost_while_moving_sends_zero_velocity_first_when_back() 
     let mut p = online();
     p.press(Button::Forward, 0);
     assert_eq!(commands(&mut p, at(0)), [FORWARD]);
-    p.connection(Connection::Commands, ConnectionState::Connecting, at(100));
+    p.connection(
+        ConnectionRole::Commands,
+        ConnectionState::Connecting,
+        at(100),
+    );
     assert_eq!(p.command_deadline(), None);
-    p.connection(Connection::Commands, ConnectionState::Open, at(1000));
+    p.connection(ConnectionRole::Commands, ConnectionState::Open, at(1000));
     assert_eq!(
         commands(&mut p, at(1000)),
         [Request::Motion(MotionCommand::ZeroVelocity)]
@@ -306,15 +316,15 @@ fn link_led_follows_the_network_and_the_connections() {
     let mut p = Panel::new(&Config::default());
     let link = |p: &Panel, ms| (p.link_state(), p.indicators(at(ms)).link);
     assert_eq!(link(&p, 0), (LinkState::NoNetwork, Led::Off));
-    p.network(true);
+    p.network(NetworkState::Up);
     assert_eq!(link(&p, 0), (LinkState::Connecting, Led::Blink));
-    p.connection(Connection::Commands, ConnectionState::Open, at(0));
+    p.connection(ConnectionRole::Commands, ConnectionState::Open, at(0));
     assert_eq!(
         link(&p, 0),
         (LinkState::Connecting, Led::Blink),
         "polls not open"
     );
-    p.connection(Connection::Polls, ConnectionState::Open, at(0));
+    p.connection(ConnectionRole::Polls, ConnectionState::Open, at(0));
     // Connected, but no status yet.
     assert_eq!(link(&p, 0), (LinkState::Connected, Led::BlinkFast));
     answer(&mut p, status(), 10);
@@ -322,7 +332,7 @@ fn link_led_follows_the_network_and_the_connections() {
     // An all-zero status is an answer: the robot answers, its state is not known.
     answer(&mut p, RobotStatus::UNAVAILABLE, 20);
     assert_eq!(link(&p, 20), (LinkState::Connected, Led::On));
-    for connection in [Connection::Commands, Connection::Polls] {
+    for connection in [ConnectionRole::Commands, ConnectionRole::Polls] {
         p.connection(connection, ConnectionState::NotAnswering, at(30));
         assert_eq!(link(&p, 30), (LinkState::NotAnswering, Led::BlinkFast));
         p.connection(connection, ConnectionState::Open, at(40));
@@ -330,7 +340,7 @@ fn link_led_follows_the_network_and_the_connections() {
     }
     // The last status goes stale 2 s after it came.
     assert_eq!(link(&p, 2020), (LinkState::Connected, Led::BlinkFast));
-    p.network(false);
+    p.network(NetworkState::Down);
     assert_eq!(link(&p, 100), (LinkState::NoNetwork, Led::Off));
 }
 

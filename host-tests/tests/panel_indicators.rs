@@ -1,4 +1,4 @@
-//! The three LEDs, rule by rule (DESIGN.md "Indicators").
+//! The three LEDs, rule by rule (docs/design.md, "Indicators").
 
 mod panel_support;
 

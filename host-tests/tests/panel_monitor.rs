@@ -1,4 +1,4 @@
-//! The poll schedule and the robot view (DESIGN.md "Monitor").
+//! The poll schedule and the robot view (docs/design.md, "Monitor").
 
 mod panel_support;
 
@@ -7,6 +7,7 @@ use std::collections::BTreeMap;
 use embassy_time::{Duration, Instant};
 use panel_support::*;
 use x30_panel::config::Config;
+use x30_panel::panel::ConnectionState;
 use x30_panel::panel::{Monitor, RobotView};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::*;
@@ -45,7 +46,7 @@ fn counts(polls: &BTreeMap<i32, Vec<u64>>) -> Vec<(i32, usize)> {
 #[test]
 fn one_minute_of_polls() {
     let mut m = Monitor::new(&Config::default());
-    m.link(true, at(0));
+    m.connection(ConnectionState::Open, at(0));
     let p = polls(&mut m, at(0), at(60_000), |_, _| {});
     assert_eq!(
         counts(&p),
@@ -60,7 +61,7 @@ fn one_minute_of_polls() {
 #[test]
 fn nav_status_polled_at_1_hz_only_while_a_task_runs() {
     let mut m = Monitor::new(&Config::default());
-    m.link(true, at(0));
+    m.connection(ConnectionState::Open, at(0));
     let p = polls(&mut m, at(0), at(60_000), |m, now| match now.as_millis() {
         10_000 => m.navigation(true, now),
         30_500 => m.navigation(false, now),
@@ -82,10 +83,10 @@ fn nothing_is_polled_while_disconnected() {
     m.navigation(true, at(0));
     assert_eq!(m.next_deadline(), None);
     // Connecting while a task runs starts its 1007 polls too, a period later.
-    m.link(true, at(20_000));
+    m.connection(ConnectionState::Open, at(20_000));
     let polls: Vec<_> = std::iter::from_fn(|| m.next_poll(at(21_000))).collect();
     assert!(polls.contains(&Request::NavStatus), "{polls:?}");
-    m.link(false, at(25_000));
+    m.connection(ConnectionState::Connecting, at(25_000));
     assert_eq!(m.next_deadline(), None);
     assert_eq!(m.next_poll(at(30_000)), None);
 }
@@ -93,7 +94,7 @@ fn nothing_is_polled_while_disconnected() {
 #[test]
 fn connecting_polls_everything_at_once_in_order() {
     let mut m = Monitor::new(&Config::default());
-    m.link(true, at(1000));
+    m.connection(ConnectionState::Open, at(1000));
     assert_eq!(m.next_deadline(), Some(at(1000)));
     let first: Vec<_> = std::iter::from_fn(|| m.next_poll(at(1000))).collect();
     assert_eq!(
@@ -107,14 +108,14 @@ fn connecting_polls_everything_at_once_in_order() {
     );
     assert_eq!(m.next_deadline(), Some(at(1500)));
     // A second "connected" report does not restart the schedule.
-    m.link(true, at(1200));
+    m.connection(ConnectionState::Open, at(1200));
     assert_eq!(m.next_poll(at(1200)), None);
 }
 
 #[test]
 fn a_late_wake_up_polls_once_and_keeps_the_period() {
     let mut m = Monitor::new(&Config::default());
-    m.link(true, at(0));
+    m.connection(ConnectionState::Open, at(0));
     while m.next_poll(at(0)).is_some() {}
     // Three seconds late: each poll once, not once per missed period.
     let late: Vec<_> = std::iter::from_fn(|| m.next_poll(at(3000))).collect();
@@ -128,7 +129,7 @@ fn poll_periods_follow_the_configuration() {
     config.polls.status = Duration::from_millis(1000);
     config.polls.battery = Duration::from_millis(20_000);
     let mut m = Monitor::new(&config);
-    m.link(true, at(0));
+    m.connection(ConnectionState::Open, at(0));
     let p = polls(&mut m, at(0), at(60_000), |_, _| {});
     assert_eq!(counts(&p), [(1002, 60), (1008, 6), (2001, 3), (2002, 60)]);
 }

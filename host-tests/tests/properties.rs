@@ -1,4 +1,5 @@
-//! Property tests of the protocol core (`x30_panel::proto`, SPEC §2–§5), run on the host.
+//! Property tests of the protocol core (`x30_panel::proto`; docs/protocol.md, from "Frame
+//! header" to "Beyond the document"), run on the host.
 //!
 //! - Every request and response, with arbitrary field values, survives encode → decode,
 //!   bare and inside a frame fed to the decoder in arbitrary pieces.
@@ -28,7 +29,8 @@ use x30_panel::proto::time::Timestamp;
 use x30_panel::proto::xml::number::NumberError;
 use x30_panel::proto::xml::writer::WriteError;
 
-/// The buffer the round-trip properties encode into, as the brief for the panel uses.
+/// The buffer the round-trip properties encode into: 4 KiB, which holds every message but
+/// the longest 1003 requests (see `encode_to_vec`).
 const BODY_BUF: usize = 4096;
 
 /// Cases for a property, unless `PROPTEST_CASES` asks for a different number.
@@ -215,13 +217,9 @@ fn speed() -> impl Strategy<Value = Speed> {
 fn motion_command() -> impl Strategy<Value = MotionCommand> {
     use MotionCommand as M;
     prop_oneof![
-        speed().prop_map(M::Forward),
-        speed().prop_map(M::Backward),
-        speed().prop_map(M::TurnLeft),
-        speed().prop_map(M::TurnRight),
+        (prop::sample::select(Direction::ALL.to_vec()), speed())
+            .prop_map(|(direction, speed)| M::Move(direction, speed)),
         Just(M::ZeroVelocity),
-        speed().prop_map(M::StrafeLeft),
-        speed().prop_map(M::StrafeRight),
         Just(M::SoftEmergencyStop),
         Just(M::StopStepping),
         Just(M::LieDown),
@@ -1224,7 +1222,8 @@ fn largest_valid_request_fits_max_request_len() {
     );
 }
 
-/// SPEC §2 allows any ASDU length. A frame declaring 37099 bytes has the length bytes
+/// The protocol allows any body length up to 65535 (docs/protocol.md, "Frame header"). A
+/// frame declaring 37099 bytes has the length bytes
 /// `EB 90`, so its first six bytes read `EB 90 EB 90 EB 90`, exactly what garbage ending
 /// in half a sync sequence followed by a real frame looks like. The frame is too long for
 /// the decoder, so it must be reported and skipped by length, and the frame after it
@@ -1272,7 +1271,10 @@ fn float_with_huge_exponent_is_out_of_range() {
     );
     assert_eq!(
         Request::decode(doc("1e-99999999999").as_bytes()).map(|d| d.message),
-        Ok(Request::Motion(MotionCommand::Forward(Speed::Value(0.0))))
+        Ok(Request::Motion(MotionCommand::Move(
+            Direction::Forward,
+            Speed::Value(0.0)
+        )))
     );
     assert!(Request::decode(doc("xE99999999999").as_bytes()).is_err());
 }

@@ -3,20 +3,20 @@
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::*;
 
-/// A motion command built from its speed.
-type MotionWithSpeed = fn(Speed) -> MotionCommand;
-
 #[test]
 fn speed_ranges_per_motion_command() {
-    let cases: [(MotionWithSpeed, f32); 6] = [
-        (MotionCommand::Forward, 1.5),
-        (MotionCommand::Backward, 1.3),
-        (MotionCommand::TurnLeft, 0.45),
-        (MotionCommand::TurnRight, 0.45),
-        (MotionCommand::StrafeLeft, 0.15),
-        (MotionCommand::StrafeRight, 0.15),
+    let cases: [(Direction, f32); 6] = [
+        (Direction::Forward, 1.5),
+        (Direction::Backward, 1.3),
+        (Direction::TurnLeft, 0.45),
+        (Direction::TurnRight, 0.45),
+        (Direction::StrafeLeft, 0.15),
+        (Direction::StrafeRight, 0.15),
     ];
-    for (command, max) in cases {
+    assert_eq!(cases.map(|(d, _)| d), Direction::ALL);
+    for (direction, max) in cases {
+        assert_eq!(direction.speed_limit(), max);
+        let command = |speed| MotionCommand::Move(direction, speed);
         assert_eq!(command(Speed::Default).validate(), Ok(()));
         assert_eq!(command(Speed::Value(0.0)).validate(), Ok(()));
         assert_eq!(command(Speed::Value(max)).validate(), Ok(()));

@@ -1,4 +1,5 @@
-//! What the XML reader tolerates (SPEC §3, §5) and what it rejects, each with a typed error.
+//! What the XML reader tolerates (docs/protocol.md, "XML body" and "Beyond the document")
+//! and what it rejects, each with a typed error.
 
 use x30_panel::proto::message::{DecodeError, Request, Response};
 use x30_panel::proto::xml::reader::{MAX_DEPTH, Token, Tokenizer, XmlErrorKind};

@@ -3,6 +3,19 @@
 //! Exactly one `board-*` feature selects the module; each provides `run(spawner)`, which
 //! brings the board up and runs the panel, so `main` stays board-agnostic.
 
+/// Logs through the board's logger: defmt on the Nucleo-F767ZI, the `log` crate on QEMU.
+/// `board_log!(info, "…", args)`; the format string must suit both (`{}` and `{:?}`).
+macro_rules! board_log {
+    ($level:ident, $($arg:tt)*) => {{
+        #[cfg(feature = "board-nucleo-f767zi")]
+        defmt::$level!($($arg)*);
+        #[cfg(feature = "board-qemu-mps2-an386")]
+        log::$level!($($arg)*);
+    }};
+}
+
+#[cfg(any(feature = "board-nucleo-f767zi", feature = "board-qemu-mps2-an386"))]
+mod glue;
 #[cfg(feature = "board-nucleo-f767zi")]
 mod nucleo_f767zi;
 #[cfg(feature = "board-nucleo-f767zi")]

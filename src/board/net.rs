@@ -1,6 +1,6 @@
 //! The client's transport over embassy-net TCP, for every board with a network stack.
 //!
-//! A [`TcpTransport`] is one [`TcpSocket`] to the robot that [`Link`](x30_panel::client::Link)
+//! A [`TcpTransport`] is one [`TcpSocket`] to the robot that [`Connection`](x30_panel::client::Connection)
 //! opens and closes again as it needs: `connect` waits (boundedly) for the board's address,
 //! aborts the previous connection and connects; `close` aborts. embassy-net's errors map to
 //! `embedded_io_async::ErrorKind`, the client's error currency.
@@ -9,12 +9,12 @@ use embassy_net::tcp::{State, TcpSocket};
 use embassy_net::{IpAddress, IpEndpoint, Ipv4Address, Ipv4Cidr, Stack, StaticConfigV4};
 use embassy_time::{Duration, with_timeout};
 use embedded_io_async::{Error as _, ErrorKind, ErrorType, Read, Write};
-use x30_panel::app::Links;
-use x30_panel::client::{Backoff, Link, RX_BUF, TX_BUF, Transport};
+use x30_panel::app::Connections;
+use x30_panel::client::{Backoff, Connection, RX_BUF, TX_BUF, Transport};
 use x30_panel::config::{Network, RobotAddress};
 
 /// How long `connect` waits for the board's address (DHCP) before it fails, so that the
-/// link's backoff and logging go on while the network is down.
+/// connection's backoff and logging go on while the network is down.
 pub const NETWORK_TIMEOUT: Duration = Duration::from_secs(5);
 /// How long a TCP connection attempt may take.
 pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
@@ -53,22 +53,22 @@ impl SocketBuffers {
 pub type LinkBuffers = [SocketBuffers; 3];
 
 /// The three connections to `robot` on `stack`, over `buffers`.
-pub fn links<'d>(
+pub fn connections<'d>(
     stack: Stack<'d>,
     robot: IpEndpoint,
     buffers: &'d mut LinkBuffers,
-) -> Links<TcpTransport<'d>> {
+) -> Connections<TcpTransport<'d>> {
     let [commands, polls, navigation] = buffers;
-    let link = |buffers: &'d mut SocketBuffers| {
-        Link::new(
+    let connection = |buffers: &'d mut SocketBuffers| {
+        Connection::new(
             TcpTransport::new(stack, robot, &mut buffers.rx, &mut buffers.tx),
             BACKOFF,
         )
     };
-    Links {
-        commands: link(commands),
-        polls: link(polls),
-        navigation: link(navigation),
+    Connections {
+        commands: connection(commands),
+        polls: connection(polls),
+        navigation: connection(navigation),
     }
 }
 

@@ -54,10 +54,9 @@ mod buttons;
 mod leds;
 mod watchdog;
 
-use defmt::{info, unwrap, warn};
+use defmt::{info, unwrap};
 use embassy_executor::Spawner;
-use embassy_futures::select::{Either, select};
-use embassy_net::{Runner, Stack, StackResources};
+use embassy_net::{Runner, StackResources};
 use embassy_stm32::eth::{self, Ethernet, GenericPhy, PacketQueue, Sma};
 use embassy_stm32::gpio::{Level, Output, Speed};
 use embassy_stm32::peripherals::{ETH, ETH_SMA, RNG};
@@ -69,8 +68,7 @@ use embassy_stm32::rng::{self, Rng};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::{Config as HalConfig, bind_interrupts, uid};
 use static_cell::ConstStaticCell;
-use x30_panel::app::{self, Shared};
-use x30_panel::config::{Config, Network};
+use x30_panel::config::Config;
 // Linked for their side effects only: the defmt RTT transport and the panic handler, which
 // prints the panic message over defmt and halts the probe session with an error. Without a
 // probe the halted core stops feeding the watchdog, which resets the board.
@@ -79,7 +77,8 @@ use {defmt_rtt as _, panic_probe as _};
 use self::buttons::{Buttons, button_task};
 use self::leds::{Leds, led_task};
 use self::watchdog::watchdog_task;
-use super::net::{self, LinkBuffers, SOCKETS, SocketBuffers};
+use super::glue;
+use super::net::{self, SOCKETS};
 
 // Log lines carry the uptime in microseconds. Defined here rather than by embassy-time's
 // `defmt-timestamp-uptime` feature, which would put defmt into every board's image.
@@ -102,9 +101,6 @@ const RX_FRAMES: usize = 4;
 /// The Ethernet driver with the LAN8742A driven through the MAC's management interface.
 type Device = Ethernet<'static, ETH, GenericPhy<Sma<'static, ETH_SMA>>>;
 
-/// What the board and the application share.
-static SHARED: Shared = Shared::new();
-
 /// The Ethernet DMA's descriptors and frame buffers (zeroed, so in `.bss`).
 static PACKETS: ConstStaticCell<PacketQueue<TX_FRAMES, RX_FRAMES>> =
     ConstStaticCell::new(PacketQueue::new());
@@ -112,13 +108,6 @@ static PACKETS: ConstStaticCell<PacketQueue<TX_FRAMES, RX_FRAMES>> =
 /// The network stack's memory.
 static RESOURCES: ConstStaticCell<StackResources<SOCKETS>> =
     ConstStaticCell::new(StackResources::new());
-
-/// The socket buffers of the three connections to the robot.
-static LINK_BUFFERS: ConstStaticCell<LinkBuffers> = ConstStaticCell::new([
-    SocketBuffers::new(),
-    SocketBuffers::new(),
-    SocketBuffers::new(),
-]);
 
 /// Brings the board up and runs the panel, forever.
 pub async fn run(spawner: Spawner) -> ! {
@@ -184,39 +173,24 @@ pub async fn run(spawner: Spawner) -> ! {
 
     // Each task is spawned once: a failure is a bug, and the panic stops the firmware (and
     // the halted core stops feeding the watchdog, which resets the board).
-    spawner.spawn(unwrap!(watchdog_task(dog, &SHARED)));
+    spawner.spawn(unwrap!(watchdog_task(dog, &glue::SHARED)));
     spawner.spawn(unwrap!(network_task(runner)));
-    spawner.spawn(unwrap!(address_task(stack, &SHARED)));
-    spawner.spawn(unwrap!(led_task(leds, &SHARED)));
+    spawner.spawn(unwrap!(glue::network_watch_task(stack)));
+    spawner.spawn(unwrap!(led_task(leds, &glue::SHARED)));
     spawner.spawn(unwrap!(button_task(
         buttons,
         config.debounce,
         config.estop_wiring,
-        &SHARED
+        &glue::SHARED
     )));
 
-    let mut links = net::links(stack, net::endpoint(config.robot), LINK_BUFFERS.take());
-    app::run(&config, &mut links, &SHARED).await
+    glue::run_app(stack, &config).await
 }
 
-/// The build-time configuration, with its invalid settings logged.
+/// The build-time configuration, logged.
 fn config() -> Config {
     let config = Config::from_build_env();
-    for variable in config.problems() {
-        warn!("{} is not valid; its default is used", variable.name());
-    }
-    let [a, b, c, d] = config.robot.ip;
-    info!("robot at {}.{}.{}.{}:{}", a, b, c, d, config.robot.port);
-    match config.network {
-        Network::Dhcp => info!("network: DHCP"),
-        Network::Static(s) => {
-            let [a, b, c, d] = s.address;
-            info!(
-                "network: static {}.{}.{}.{}/{}, gateway {}",
-                a, b, c, d, s.prefix_len, s.gateway
-            );
-        }
-    }
+    glue::log_config(&config);
     info!("configuration: {}", config);
     config
 }
@@ -238,27 +212,6 @@ fn mac_address() -> [u8; 6] {
 #[embassy_executor::task]
 async fn network_task(mut runner: Runner<'static, Device>) -> ! {
     runner.run().await
-}
-
-/// Tells the application and the log whether the board has a network: an Ethernet link
-/// and an address.
-#[embassy_executor::task]
-async fn address_task(stack: Stack<'static>, shared: &'static Shared) -> ! {
-    loop {
-        stack.wait_link_up().await;
-        info!("Ethernet link up");
-        if let Either::First(()) = select(stack.wait_config_up(), stack.wait_link_down()).await {
-            match stack.config_v4() {
-                Some(v4) => info!("network up: {}", v4.address),
-                None => info!("network up"),
-            }
-            shared.set_network(true);
-            // A lost lease counts as no network too.
-            select(stack.wait_link_down(), stack.wait_config_down()).await;
-            shared.set_network(false);
-        }
-        warn!("network down");
-    }
 }
 
 /// Clock tree: 216 MHz system clock (the F767's maximum) from the ST-LINK's 8 MHz MCO.

@@ -5,35 +5,35 @@
 //! connections — message IDs, timeouts, Type 0 answers, reconnection, the wall-clock `Time`
 //! field — and never decides what to send; that is the panel's job.
 //!
-//! The panel keeps three [`Link`]s, as the protocol document advises for requests that must
-//! not wait on each other: a command link whose requests are written without waiting for
-//! earlier answers (so a stop never waits), a poll link for the state queries, and a
-//! navigation link that carries one 1003 and stays open until its answer, because the robot
-//! stops a task whose connection drops (ErrorStatus 41802).
+//! The panel keeps three [`Connection`]s, as the protocol document advises for requests
+//! that must not wait on each other: one for commands, written without waiting for earlier
+//! answers (so a stop never waits), one for the state queries, and one that carries a 1003
+//! and stays open until its answer, because the robot stops a task whose connection drops
+//! (ErrorStatus 41802).
 
 mod backoff;
 mod clock;
-mod link;
+mod connection;
 
 pub use backoff::Backoff;
 pub use clock::RobotClock;
-pub use embedded_io_async::ErrorKind;
-pub use link::{
-    ANSWER_OVERDUE, Anomalies, Answer, Health, Link, MAX_OUTSTANDING, RX_BUF, SILENT_AFTER,
+pub use connection::{
+    ANSWER_OVERDUE, Anomalies, Answer, Connection, Health, MAX_OUTSTANDING, RX_BUF, SILENT_AFTER,
     SILENT_TIMEOUTS, Sent, TX_BUF, Transport, WRITE_TIMEOUT,
 };
+pub use embedded_io_async::ErrorKind;
 
 use crate::proto::codes::{MessageType, RequestErrorCode};
-use crate::proto::message::DecodeError;
+use crate::proto::message::{DecodeError, ValidationError};
 use crate::proto::xml::writer::WriteError;
 
 /// Why a request got no usable answer. [`ClientError::connection_usable`] says whether the
-/// link is still open for the next request.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// connection is still open for the next request.
+#[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum ClientError {
-    /// The link is not connected; nothing was sent.
+    /// The connection is not open; nothing was sent.
     NotConnected,
     /// The transport failed; the connection is closed.
     Io(ErrorKind),
@@ -47,6 +47,9 @@ pub enum ClientError {
     Timeout,
     /// The request could not be encoded; nothing was sent. The connection stays open.
     Encode(WriteError),
+    /// The request breaks the protocol document's rules, or is a command beyond V1.0.12
+    /// without the `vendor-extensions` feature; nothing was sent. The connection stays open.
+    Invalid(ValidationError),
     /// The robot answered with Type 0: it could not read the request. The connection
     /// stays open.
     RequestError(RequestErrorCode),
@@ -74,7 +77,7 @@ impl ClientError {
     }
 }
 
-/// A frame that does not fit the link's send buffer is a request too large to encode.
+/// A frame that does not fit the connection's send buffer is a request too large to encode.
 impl From<crate::proto::frame::EncodeError> for ClientError {
     fn from(_: crate::proto::frame::EncodeError) -> Self {
         Self::Encode(WriteError::BufferFull)

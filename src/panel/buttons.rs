@@ -7,12 +7,12 @@
 use embassy_time::{Duration, Instant};
 
 use crate::config::MotionSpeeds;
-use crate::proto::message::MotionCommand;
+use crate::proto::message::{Direction, MotionCommand};
 
 /// How many buttons the panel has.
 pub const BUTTON_COUNT: usize = 14;
 
-/// A button of the panel, in the order of DESIGN.md.
+/// A button of the panel, in the order of docs/design.md, "Panel behaviour".
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Button {
@@ -47,7 +47,7 @@ pub enum Button {
 }
 
 impl Button {
-    /// Every button, in the order of DESIGN.md.
+    /// Every button, in the order of docs/design.md, "Panel behaviour".
     pub const ALL: [Button; BUTTON_COUNT] = [
         Self::Forward,
         Self::Backward,
@@ -91,8 +91,8 @@ impl Button {
     }
 
     /// Whether the button drives the robot while held (the first six).
-    pub const fn is_motion(self) -> bool {
-        self.index() < 6
+    pub fn is_motion(self) -> bool {
+        self.direction().is_some()
     }
 
     /// The button's position in [`Button::ALL`].
@@ -100,18 +100,18 @@ impl Button {
         self as usize
     }
 
+    /// The direction a motion button moves the robot in; `None` for the other buttons.
+    pub fn direction(self) -> Option<Direction> {
+        Direction::ALL
+            .into_iter()
+            .find(|direction| direction.name() == self.name())
+    }
+
     /// The Type 2 command a motion button repeats, at its configured speed; `None` for the
     /// other buttons.
     pub fn motion(self, speeds: &MotionSpeeds) -> Option<MotionCommand> {
-        Some(match self {
-            Self::Forward => MotionCommand::Forward(speeds.forward),
-            Self::Backward => MotionCommand::Backward(speeds.backward),
-            Self::TurnLeft => MotionCommand::TurnLeft(speeds.turn_left),
-            Self::TurnRight => MotionCommand::TurnRight(speeds.turn_right),
-            Self::StrafeLeft => MotionCommand::StrafeLeft(speeds.strafe_left),
-            Self::StrafeRight => MotionCommand::StrafeRight(speeds.strafe_right),
-            _ => return None,
-        })
+        self.direction()
+            .map(|direction| MotionCommand::Move(direction, speeds.get(direction)))
     }
 }
 

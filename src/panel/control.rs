@@ -34,8 +34,10 @@
 use embassy_time::{Duration, Instant};
 use heapless::{Deque, Vec};
 
+use super::ConnectionState;
 use super::buttons::{Button, ButtonEvent};
 use super::next_after;
+use crate::client::{ClientError, Health};
 use crate::config::{Config, LightPresets, MotionSpeeds};
 use crate::proto::codes::{GaitState, LocalizationResult, MotionGait, MotionState, NavOutcome};
 use crate::proto::message::{Light, MotionCommand, NavPoint, NavTask, Request, Response};
@@ -72,6 +74,27 @@ pub fn succeeded(response: &Response) -> bool {
         | Response::MotorTemperatures(_)
         | Response::Battery(_)
         | Response::Perception(_) => true,
+    }
+}
+
+/// How a command or a navigation task ended, as far as the panel is concerned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Outcome {
+    /// The robot reported success (a cancelled task counts).
+    Succeeded,
+    /// The robot refused it, answered with an error, or did not answer.
+    Failed,
+}
+
+impl Outcome {
+    /// The outcome of an answer ([`succeeded`]), or of none.
+    pub fn of(answer: Result<&Response, &ClientError>) -> Self {
+        if answer.is_ok_and(succeeded) {
+            Self::Succeeded
+        } else {
+            Self::Failed
+        }
     }
 }
 
@@ -270,8 +293,9 @@ impl Control {
         }
     }
 
-    /// The command connection opened (`true`) or closed.
-    pub fn connection(&mut self, open: bool) {
+    /// The command connection is in `state` (open unless connecting).
+    pub fn connection(&mut self, state: ConnectionState) {
+        let open = state != ConnectionState::Connecting;
         if open == self.connected {
             return;
         }
@@ -305,9 +329,10 @@ impl Control {
     }
 
     /// The next request for the command connection at `now`, if any; see the module docs
-    /// for the order. `motion_allowed` is false while the robot's answers are overdue:
-    /// motion due then is skipped, not sent late.
-    pub fn next_command(&mut self, now: Instant, motion_allowed: bool) -> Option<Request> {
+    /// for the order. Motion is written only while the robot is [`Health::Answering`]:
+    /// motion due while its answers are overdue is skipped, not sent late.
+    pub fn next_command(&mut self, now: Instant, health: Health) -> Option<Request> {
+        let motion_allowed = health == Health::Answering;
         if !self.connected {
             return None;
         }
@@ -389,9 +414,9 @@ impl Control {
         [estop, self.next_repeat].into_iter().flatten().min()
     }
 
-    /// A command's answer came (`ok`: it reports success) or never did (`ok` false).
-    pub fn command_answered(&mut self, ok: bool) {
-        self.last_failed = !ok;
+    /// A command's answer came, or never did.
+    pub fn command_answered(&mut self, outcome: Outcome) {
+        self.last_failed = outcome == Outcome::Failed;
     }
 
     /// The ordered navigation task, for the navigation connection to send; `None` without
@@ -440,12 +465,12 @@ impl Control {
 
     /// Order `id` ended: answered (`ok` if it succeeded or was cancelled) or lost with its
     /// connection (`ok` false).
-    pub fn task_ended(&mut self, id: u32, ok: bool) {
+    pub fn task_ended(&mut self, id: u32, outcome: Outcome) {
         if matches!(self.task, Task::Running { id: running } | Task::Ordered { id: running, .. } if running == id)
         {
             self.task = Task::Idle;
         }
-        self.last_failed = !ok;
+        self.last_failed = outcome == Outcome::Failed;
     }
 
     /// When the last command went out.

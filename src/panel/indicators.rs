@@ -1,4 +1,4 @@
-//! The three LEDs, derived from what the panel knows (DESIGN.md "Indicators").
+//! The three LEDs, derived from what the panel knows (docs/design.md, "Indicators").
 //!
 //! Every LED state is a pure function of the link state, the [`RobotView`], the last command
 //! and the time, so the application recomputes them whenever anything changed and sets the

@@ -22,13 +22,13 @@ pub mod monitor;
 pub mod virtual_panel;
 
 pub use buttons::{Button, ButtonDebouncers, ButtonEvent, Debouncer};
-pub use control::{Control, STALE_PRESS, TaskOrder, succeeded};
+pub use control::{Control, Outcome, STALE_PRESS, TaskOrder, succeeded};
 pub use indicators::{Fault, Indicators, Led, LinkState};
 pub use monitor::{Monitor, RobotView, Stamped};
 
 use embassy_time::{Duration, Instant};
 
-use crate::client::ClientError;
+use crate::client::{ClientError, Health};
 use crate::config::Config;
 use crate::proto::message::{NavResult, Request, Response};
 
@@ -44,10 +44,20 @@ pub(crate) fn next_after(due: Instant, period: Duration, now: Instant) -> Instan
     }
 }
 
+/// Whether the board has a network: a link and an address.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NetworkState {
+    /// No link, or no address yet.
+    Down,
+    /// A link and an address.
+    Up,
+}
+
 /// The panel's connections to the robot, each with one job.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Connection {
+pub enum ConnectionRole {
     /// Commands, written without waiting for earlier answers.
     Commands,
     /// Polls of the robot's state, one at a time.
@@ -83,7 +93,7 @@ pub struct Panel {
     /// The robot's latest answers.
     view: RobotView,
     /// Whether the board has a network.
-    network: bool,
+    network: NetworkState,
     /// The command connection.
     commands: ConnectionState,
     /// The poll connection.
@@ -97,7 +107,7 @@ impl Panel {
             control: Control::new(config),
             monitor: Monitor::new(config),
             view: RobotView::new(config),
-            network: false,
+            network: NetworkState::Down,
             commands: ConnectionState::Connecting,
             polls: ConnectionState::Connecting,
         }
@@ -111,36 +121,35 @@ impl Panel {
     }
 
     /// The board's network came up or went down.
-    pub fn network(&mut self, up: bool) {
-        self.network = up;
+    pub fn network(&mut self, state: NetworkState) {
+        self.network = state;
     }
 
     /// A connection to the robot is in `state`; whether that is a change.
     pub fn connection(
         &mut self,
-        connection: Connection,
+        connection: ConnectionRole,
         state: ConnectionState,
         now: Instant,
     ) -> bool {
-        let open = state != ConnectionState::Connecting;
         let was = match connection {
-            Connection::Commands => {
-                self.control.connection(open);
+            ConnectionRole::Commands => {
+                self.control.connection(state);
                 core::mem::replace(&mut self.commands, state)
             }
-            Connection::Polls => {
-                self.monitor.link(open, now);
+            ConnectionRole::Polls => {
+                self.monitor.connection(state, now);
                 core::mem::replace(&mut self.polls, state)
             }
             // Its loss ends the task, which the application reports with `task_ended`.
-            Connection::Navigation => state,
+            ConnectionRole::Navigation => state,
         };
         was != state
     }
 
     /// The next request for the command connection (see [`Control::next_command`]).
-    pub fn next_command(&mut self, now: Instant, motion_allowed: bool) -> Option<Request> {
-        let request = self.control.next_command(now, motion_allowed);
+    pub fn next_command(&mut self, now: Instant, health: Health) -> Option<Request> {
+        let request = self.control.next_command(now, health);
         // A stop or motion press may have ended the navigation task.
         self.monitor.navigation(self.control.navigating(), now);
         request
@@ -148,13 +157,13 @@ impl Panel {
 
     /// A command's answer, or why there is none (timeout, connection lost, Type 0).
     pub fn command_answered(&mut self, answer: Result<&Response, &ClientError>) {
-        let ok = answer.is_ok_and(succeeded);
-        if let Err(e) = answer {
-            warn!("command failed: {:?}", e);
-        } else if !ok {
-            warn!("command refused by the robot");
+        let outcome = Outcome::of(answer);
+        match answer {
+            Err(e) => warn!("command failed: {:?}", e),
+            Ok(_) if outcome == Outcome::Failed => warn!("command refused by the robot"),
+            Ok(_) => {}
         }
-        self.control.command_answered(ok);
+        self.control.command_answered(outcome);
     }
 
     /// The next poll due at `now` on the poll connection.
@@ -196,22 +205,23 @@ impl Panel {
 
     /// Order `id` ended: its answer, or why there is none.
     pub fn task_ended(&mut self, id: u32, end: Result<&NavResult, &ClientError>, now: Instant) {
-        let ok = match end {
+        let outcome = match end {
             Ok(result) => {
                 info!(
                     "navigation task ended: {} ({})",
                     result.outcome.description(),
                     result.status.description()
                 );
-                self.view.update(&Response::NavResult(*result), now);
-                succeeded(&Response::NavResult(*result))
+                let answer = Response::NavResult(*result);
+                self.view.update(&answer, now);
+                Outcome::of(Ok(&answer))
             }
             Err(e) => {
                 warn!("navigation task lost: {:?}", e);
-                false
+                Outcome::Failed
             }
         };
-        self.control.task_ended(id, ok);
+        self.control.task_ended(id, outcome);
         self.monitor.navigation(self.control.navigating(), now);
     }
 
@@ -253,7 +263,7 @@ impl Panel {
     /// What the link LED shows, from the network and the command and poll connections.
     pub fn link_state(&self) -> LinkState {
         use ConnectionState::{Connecting, NotAnswering};
-        if !self.network {
+        if self.network == NetworkState::Down {
             LinkState::NoNetwork
         } else if self.commands == Connecting || self.polls == Connecting {
             LinkState::Connecting

@@ -2,7 +2,8 @@
 //!
 //! [`Monitor`] decides when to ask the robot for its state: status (1002) and perception
 //! (2002) every 500 ms, battery (2001) every 5 s, motor temperatures (1008) every 10 s, and
-//! the navigation-task status (1007) every second while a task runs (DESIGN.md "Monitor").
+//! the navigation-task status (1007) every second while a task runs (docs/design.md,
+//! "Monitor").
 //! The polls have a connection of their own, so that a robot slow to answer them never
 //! holds a command back.
 //!
@@ -12,7 +13,7 @@
 
 use embassy_time::{Duration, Instant};
 
-use super::next_after;
+use super::{ConnectionState, next_after};
 use crate::config::{Config, PollPeriods};
 use crate::proto::message::{
     Battery, MotorTemperatures, NavResult, NavTaskState, Perception, Request, Response, RobotStatus,
@@ -97,9 +98,10 @@ impl Monitor {
         }
     }
 
-    /// The control connection went up (every poll at once, to fill the view) or down (no
-    /// polls until it is back).
-    pub fn link(&mut self, connected: bool, now: Instant) {
+    /// The poll connection is in `state`: open (every poll at once, to fill the view) or
+    /// connecting (no polls until it is back).
+    pub fn connection(&mut self, state: ConnectionState, now: Instant) {
+        let connected = state != ConnectionState::Connecting;
         if connected == self.connected {
             return;
         }

@@ -45,6 +45,12 @@ macro_rules! coded_enum {
         $(#[$meta])*
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
         #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+        // Serialized as `{"code": raw, "name": ..., "description": ...}`.
+        #[cfg_attr(
+            feature = "serde",
+            derive(serde::Serialize),
+            serde(into = "crate::proto::serde_support::CodeOut")
+        )]
         pub enum $name {
             $(
                 #[doc = concat!("`", stringify!($raw), "`: ", $desc, ".")]
@@ -114,6 +120,17 @@ macro_rules! coded_enum {
             }
         }
 
+        /// Reads the serialized object's `code`; its `name` and `description` are ignored.
+        #[cfg(feature = "serde")]
+        impl<'de> serde::Deserialize<'de> for $name {
+            fn deserialize<D>(deserializer: D) -> Result<Self, D::Error>
+            where
+                D: serde::Deserializer<'de>,
+            {
+                $crate::proto::serde_support::deserialize_code(deserializer)
+            }
+        }
+
         impl From<$name> for i32 {
             fn from(code: $name) -> Self {
                 code.raw()
@@ -148,8 +165,9 @@ coded_enum! {
 coded_enum! {
     /// `Command` element of a Type 2 motion-control request.
     ///
-    /// Codes 16–22 exist only with the `vendor-extensions` feature: they are beyond protocol
-    /// V1.0.12, seen in later vendor software.
+    /// Codes 16–22 are beyond protocol V1.0.12, seen in later vendor software: always
+    /// decoded, but sent only with the `vendor-extensions` feature
+    /// ([`MotionCommand::validate`](crate::proto::message::MotionCommand::validate)).
     pub enum MotionCommandCode {
         Forward = 1 => "forward",
         Backward = 2 => "backward",
@@ -162,23 +180,17 @@ coded_enum! {
         StopStepping = 14 => "stop stepping",
         LieDown = 15 => "lie down",
         /// Beyond protocol V1.0.12 (seen in later vendor software).
-        #[cfg(feature = "vendor-extensions")]
         StandUp = 16 => "stand up",
         /// Beyond protocol V1.0.12 (seen in later vendor software).
-        #[cfg(feature = "vendor-extensions")]
         ForceControl = 17 => "force-control mode",
         /// Beyond protocol V1.0.12 (seen in later vendor software).
-        #[cfg(feature = "vendor-extensions")]
         StartStepping = 18 => "start stepping",
         /// Beyond protocol V1.0.12 (seen in later vendor software).
-        #[cfg(feature = "vendor-extensions")]
         BodyHeight = 19 => "body height",
         SwitchGait = 20 => "switch gait",
         /// Beyond protocol V1.0.12 (seen in later vendor software).
-        #[cfg(feature = "vendor-extensions")]
         GoCharging = 21 => "go charging",
         /// Beyond protocol V1.0.12 (seen in later vendor software).
-        #[cfg(feature = "vendor-extensions")]
         LeaveCharger = 22 => "leave the charger",
     }
 }
@@ -194,6 +206,21 @@ coded_enum! {
         LyingDownInProgress = 5 => "lying down in progress",
         SoftEmergencyStop = 6 => "soft emergency stop",
         Fallen = 7 => "fallen",
+    }
+}
+
+impl MotionCommandCode {
+    /// Whether this is one of the codes beyond protocol V1.0.12 (16–19, 21, 22).
+    pub const fn is_vendor_extension(self) -> bool {
+        matches!(
+            self,
+            Self::StandUp
+                | Self::ForceControl
+                | Self::StartStepping
+                | Self::BodyHeight
+                | Self::GoCharging
+                | Self::LeaveCharger
+        )
     }
 }
 

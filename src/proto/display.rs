@@ -134,6 +134,9 @@ impl Display for ValidationError {
                 f.write_str("crouched posture allows only the walk and slope gaits")
             }
             Self::NoPoints => f.write_str("navigation task without points"),
+            Self::VendorExtension => {
+                f.write_str("command beyond protocol V1.0.12 (needs the vendor-extensions feature)")
+            }
         }
     }
 }

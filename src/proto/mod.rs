@@ -14,5 +14,7 @@ mod display;
 pub mod frame;
 pub mod message;
 pub mod outstanding;
+#[cfg(feature = "serde")]
+mod serde_support;
 pub mod time;
 pub mod xml;

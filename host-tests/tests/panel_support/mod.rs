@@ -5,7 +5,9 @@
 #![allow(dead_code)]
 
 use embassy_time::Instant;
+use x30_panel::client::Health;
 use x30_panel::config::{Config, parse_dock};
+use x30_panel::panel::ConnectionState;
 use x30_panel::panel::{Button, ButtonEvent, Control, Panel};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::{Battery, Request, RobotStatus};
@@ -68,13 +70,13 @@ pub fn connected() -> Control {
 /// A control state machine with `config`, its command connection open.
 pub fn connected_with(config: &Config) -> Control {
     let mut control = Control::new(config);
-    control.connection(true);
+    control.connection(ConnectionState::Open);
     control
 }
 
 /// Every command due at `now`, with motion allowed.
 pub fn drain(control: &mut Control, now: Instant) -> Vec<Request> {
-    std::iter::from_fn(|| control.next_command(now, true)).collect()
+    std::iter::from_fn(|| control.next_command(now, Health::Answering)).collect()
 }
 
 /// Runs the control state machine from `from` to `to` inclusive as the application does:

@@ -18,34 +18,25 @@ pub mod time;
 pub mod uart;
 
 use embassy_executor::Spawner;
-use embassy_net::{Runner, Stack, StackResources};
+use embassy_net::{Runner, StackResources};
 use embassy_time::Instant;
 use log::{LevelFilter, error, info, warn};
-use static_cell::{ConstStaticCell, StaticCell};
-use x30_panel::app::{self, Shared};
+use static_cell::StaticCell;
+use x30_panel::app::Shared;
 use x30_panel::config::{Config, RobotAddress, parse_robot};
 use x30_panel::panel::virtual_panel::LineReader;
 use x30_panel::panel::{Indicators, Led};
 
 use self::lan9118::Lan9118;
 use self::uart::Uart0Rx;
-use super::net::{self, LinkBuffers, SOCKETS, SocketBuffers};
+use super::glue;
+use super::net::{self, SOCKETS};
 
 /// The board's Ethernet address: locally administered (0x02), "X30" and a 1.
 pub const MAC: [u8; 6] = [0x02, 0x00, b'X', b'3', b'0', 0x01];
 
-/// What the board and the application share.
-static SHARED: Shared = Shared::new();
-
 /// The network stack's memory.
 static RESOURCES: StaticCell<StackResources<SOCKETS>> = StaticCell::new();
-
-/// The socket buffers of the three connections to the robot.
-static LINK_BUFFERS: ConstStaticCell<LinkBuffers> = ConstStaticCell::new([
-    SocketBuffers::new(),
-    SocketBuffers::new(),
-    SocketBuffers::new(),
-]);
 
 /// Brings the board up and runs the panel, forever.
 pub async fn run(spawner: Spawner) -> ! {
@@ -71,16 +62,14 @@ pub async fn run(spawner: Spawner) -> ! {
         RESOURCES.init(StackResources::new()),
         seed,
     );
-    let mut links = net::links(stack, net::endpoint(config.robot), LINK_BUFFERS.take());
-
     // Each task is spawned once: a failure is a bug, and the panic stops the firmware.
     spawner.spawn(network_task(runner).expect("network task"));
-    spawner.spawn(address_task(stack, &SHARED).expect("address task"));
-    spawner.spawn(led_task(&SHARED).expect("LED task"));
+    spawner.spawn(glue::network_watch_task(stack).expect("network watch task"));
+    spawner.spawn(led_task(&glue::SHARED).expect("LED task"));
     let uart = Uart0Rx::take().expect("UART0 is free");
-    spawner.spawn(panel_task(uart, &SHARED).expect("virtual panel task"));
+    spawner.spawn(panel_task(uart, &glue::SHARED).expect("virtual panel task"));
 
-    app::run(&config, &mut links, &SHARED).await
+    glue::run_app(stack, &config).await
 }
 
 /// The log level: `X30_LOG` at build time (`error`, `warn`, `info`, `debug`, `trace`), else
@@ -95,17 +84,13 @@ fn log_level() -> LevelFilter {
 /// one.
 fn config() -> Config {
     let mut config = Config::from_build_env();
-    for variable in config.problems() {
-        warn!("{} is not valid; its default is used", variable.name());
-    }
     let mut buf = [0u8; 256];
     let from_command_line = semihosting::command_line(&mut buf).and_then(robot_argument);
     match from_command_line {
         Some(robot) => config.robot = robot,
         None => info!("no robot address on the command line; using the build-time one"),
     }
-    let [a, b, c, d] = config.robot.ip;
-    info!("robot at {}.{}.{}.{}:{}", a, b, c, d, config.robot.port);
+    glue::log_config(&config);
     config
 }
 
@@ -128,22 +113,6 @@ pub fn robot_argument(command_line: &str) -> Option<RobotAddress> {
 #[embassy_executor::task]
 async fn network_task(mut runner: Runner<'static, Lan9118>) -> ! {
     runner.run().await
-}
-
-/// Tells the application and the log whether the board has an address (DHCP lease, loss).
-#[embassy_executor::task]
-async fn address_task(stack: Stack<'static>, shared: &'static Shared) -> ! {
-    loop {
-        stack.wait_config_up().await;
-        match stack.config_v4() {
-            Some(v4) => info!("network up: {}", v4.address),
-            None => info!("network up"),
-        }
-        shared.set_network(true);
-        stack.wait_config_down().await;
-        warn!("network down");
-        shared.set_network(false);
-    }
 }
 
 /// Shows the LEDs: logs each change as `led NAME on|off|blink`.

@@ -209,6 +209,7 @@ macro_rules! item_set {
         $(#[$meta])*
         #[derive(Debug, Clone, Copy, PartialEq)]
         #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+        #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
         pub struct $name {
             $( $(#[$fmeta])* pub $field: $ty, )*
         }

@@ -2,7 +2,8 @@
 //!
 //! The panel encodes [`Request`]s and decodes [`Response`]s; the simulator does the
 //! opposite with the same code. Each body is written in the document's layout and read
-//! with the tolerance SPEC §5 asks for: elements in any order, unknown items skipped,
+//! with the tolerance real peers need (docs/protocol.md, "Beyond the document"): elements
+//! in any order, unknown items skipped,
 //! `MapId` for `MapID`, several `<Items>` blocks in a 1003 request.
 
 pub(crate) mod items;
@@ -10,7 +11,10 @@ mod motion;
 mod nav;
 mod status;
 
-pub use motion::{Light, MotionAck, MotionCommand, MotionValue, Relocalize, RelocalizeAck, Speed};
+pub use motion::{
+    Direction, Light, MotionAck, MotionCommand, MotionValue, Relocalize, RelocalizeAck,
+    SENDS_VENDOR_EXTENSIONS, Speed,
+};
 pub use nav::{CommandAck, MAX_NAV_POINTS, NavPoint, NavResult, NavTask, NavTaskState};
 pub use status::{Battery, MapImage, MotorTemperatures, Perception, RobotStatus};
 
@@ -101,12 +105,16 @@ pub enum ValidationError {
     GaitNotAllowedWhenCrouched,
     /// A navigation task without points.
     NoPoints,
+    /// A Type 2 command beyond protocol V1.0.12 (16–19, 21, 22), which this build sends
+    /// only with the `vendor-extensions` feature.
+    VendorExtension,
 }
 
 item_set! {
     /// Type 0 answer: the robot could not read a request.
     pub struct RequestError {
         /// What was wrong with the request.
+        #[cfg_attr(feature = "serde", serde(rename = "error_code"))]
         pub code: RequestErrorCode = "ErrorCode";
     }
 }
@@ -117,6 +125,8 @@ item_set! {
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+// Serialized as its items alone; `null` for a request without items.
+#[cfg_attr(feature = "serde", derive(serde::Serialize), serde(untagged))]
 pub enum Request {
     /// 1002: real-time basic status.
     Status,
@@ -143,6 +153,8 @@ pub enum Request {
 /// A response, as the robot sends it and the panel receives it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+// Serialized as its items alone.
+#[cfg_attr(feature = "serde", derive(serde::Serialize), serde(untagged))]
 pub enum Response {
     /// 1002 answer.
     Status(RobotStatus),
@@ -157,6 +169,10 @@ pub enum Response {
     /// 1101 answer.
     Light(CommandAck),
     /// 2 answer, with the command it answers.
+    #[cfg_attr(
+        feature = "serde",
+        serde(serialize_with = "crate::proto::serde_support::motion_answer")
+    )]
     Motion(MotionCommandCode, MotionAck),
     /// 2001 answer.
     Battery(Battery),
@@ -396,7 +412,8 @@ impl Response {
 
 fn read_motion(command: i32, items: &mut Items<'_>) -> Result<MotionCommand, DecodeError> {
     let code = MotionCommandCode::from_raw(command);
-    // A gait number is an int (SPEC §4.5); reading it as a float would round large ones.
+    // A gait number is an int (docs/protocol.md, "Type 2: motion control"); reading it as a
+    // float would round large ones.
     let spec = ItemSpec {
         name: "Value",
         kind: match code {

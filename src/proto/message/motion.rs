@@ -35,24 +35,105 @@ impl Speed {
     }
 }
 
+/// The six ways a held motion button moves the robot: the Type 2 commands that must be
+/// repeated at 3–5 Hz while the motion should continue.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Direction {
+    /// Command 1: walk forwards, 0..=1.5 m/s (default 0.5).
+    Forward,
+    /// Command 2: walk backwards, 0..=1.3 m/s (default 0.5).
+    Backward,
+    /// Command 3: turn left, 0..=0.45 rad/s (default 0.35).
+    TurnLeft,
+    /// Command 4: turn right, 0..=0.45 rad/s (default 0.35).
+    TurnRight,
+    /// Command 11: strafe left, 0..=0.15 m/s (default 0.1).
+    StrafeLeft,
+    /// Command 12: strafe right, 0..=0.15 m/s (default 0.1).
+    StrafeRight,
+}
+
+impl Direction {
+    /// Every direction, in the order of their Command codes.
+    pub const ALL: [Direction; 6] = [
+        Self::Forward,
+        Self::Backward,
+        Self::TurnLeft,
+        Self::TurnRight,
+        Self::StrafeLeft,
+        Self::StrafeRight,
+    ];
+
+    /// The `Command` code.
+    pub const fn code(self) -> MotionCommandCode {
+        match self {
+            Self::Forward => MotionCommandCode::Forward,
+            Self::Backward => MotionCommandCode::Backward,
+            Self::TurnLeft => MotionCommandCode::TurnLeft,
+            Self::TurnRight => MotionCommandCode::TurnRight,
+            Self::StrafeLeft => MotionCommandCode::StrafeLeft,
+            Self::StrafeRight => MotionCommandCode::StrafeRight,
+        }
+    }
+
+    /// The direction a `Command` code moves in, if it is one of the six.
+    pub fn from_code(code: MotionCommandCode) -> Option<Self> {
+        Self::ALL.into_iter().find(|d| d.code() == code)
+    }
+
+    /// The name used for it everywhere people type it (buttons, settings, x30ctl), such as
+    /// `turn-left`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Forward => "forward",
+            Self::Backward => "backward",
+            Self::TurnLeft => "turn-left",
+            Self::TurnRight => "turn-right",
+            Self::StrafeLeft => "strafe-left",
+            Self::StrafeRight => "strafe-right",
+        }
+    }
+
+    /// The direction named `name` (see [`Direction::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|d| d.name() == name)
+    }
+
+    /// Largest speed the document allows, m/s or rad/s.
+    pub const fn speed_limit(self) -> f32 {
+        match self {
+            Self::Forward => 1.5,
+            Self::Backward => 1.3,
+            Self::TurnLeft | Self::TurnRight => 0.45,
+            Self::StrafeLeft | Self::StrafeRight => 0.15,
+        }
+    }
+
+    /// The robot's own speed when sent the default (−1), m/s or rad/s (an `f64`, for
+    /// simulating the robot's motion exactly).
+    pub const fn default_speed(self) -> f64 {
+        match self {
+            Self::Forward | Self::Backward => 0.5,
+            Self::TurnLeft | Self::TurnRight => 0.35,
+            Self::StrafeLeft | Self::StrafeRight => 0.1,
+        }
+    }
+}
+
 /// A Type 2 motion command with its `Value`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize),
+    serde(into = "crate::proto::serde_support::MotionCommandItems")
+)]
 pub enum MotionCommand {
-    /// Command 1: walk forwards, 0..=1.5 m/s (default 0.5). Repeat at 3–5 Hz.
-    Forward(Speed),
-    /// Command 2: walk backwards, 0..=1.3 m/s (default 0.5). Repeat at 3–5 Hz.
-    Backward(Speed),
-    /// Command 3: turn left, 0..=0.45 rad/s (default 0.35). Repeat at 3–5 Hz.
-    TurnLeft(Speed),
-    /// Command 4: turn right, 0..=0.45 rad/s (default 0.35). Repeat at 3–5 Hz.
-    TurnRight(Speed),
+    /// Commands 1–4, 11, 12: move in a direction at a speed. Repeat at 3–5 Hz.
+    Move(Direction, Speed),
     /// Command 6: zero velocity.
     ZeroVelocity,
-    /// Command 11: strafe left, 0..=0.15 m/s (default 0.1). Repeat at 3–5 Hz.
-    StrafeLeft(Speed),
-    /// Command 12: strafe right, 0..=0.15 m/s (default 0.1). Repeat at 3–5 Hz.
-    StrafeRight(Speed),
     /// Command 13: soft emergency stop.
     SoftEmergencyStop,
     /// Command 14: stop stepping.
@@ -62,24 +143,22 @@ pub enum MotionCommand {
     /// Command 20: switch gait.
     SwitchGait(MotionGait),
     /// Command 16: stand up (beyond V1.0.12).
-    #[cfg(feature = "vendor-extensions")]
     StandUp,
     /// Command 17: force-control mode (beyond V1.0.12).
-    #[cfg(feature = "vendor-extensions")]
     ForceControl,
     /// Command 18: start stepping (beyond V1.0.12).
-    #[cfg(feature = "vendor-extensions")]
     StartStepping,
     /// Command 19: body height, value as the vendor software sends it (beyond V1.0.12).
-    #[cfg(feature = "vendor-extensions")]
     BodyHeight(f32),
     /// Command 21: go charging (beyond V1.0.12).
-    #[cfg(feature = "vendor-extensions")]
     GoCharging,
     /// Command 22: leave the charger (beyond V1.0.12).
-    #[cfg(feature = "vendor-extensions")]
     LeaveCharger,
 }
+
+/// Whether this build sends the Type 2 commands beyond protocol V1.0.12 (16–19, 21, 22): the
+/// `vendor-extensions` feature. They are decoded either way.
+pub const SENDS_VENDOR_EXTENSIONS: bool = cfg!(feature = "vendor-extensions");
 
 /// `Value` of commands that take none.
 const PLACEHOLDER: f32 = -1.0;
@@ -89,28 +168,17 @@ impl MotionCommand {
     pub fn code(&self) -> MotionCommandCode {
         use MotionCommandCode as C;
         match self {
-            Self::Forward(_) => C::Forward,
-            Self::Backward(_) => C::Backward,
-            Self::TurnLeft(_) => C::TurnLeft,
-            Self::TurnRight(_) => C::TurnRight,
+            Self::Move(direction, _) => direction.code(),
             Self::ZeroVelocity => C::ZeroVelocity,
-            Self::StrafeLeft(_) => C::StrafeLeft,
-            Self::StrafeRight(_) => C::StrafeRight,
             Self::SoftEmergencyStop => C::SoftEmergencyStop,
             Self::StopStepping => C::StopStepping,
             Self::LieDown => C::LieDown,
             Self::SwitchGait(_) => C::SwitchGait,
-            #[cfg(feature = "vendor-extensions")]
             Self::StandUp => C::StandUp,
-            #[cfg(feature = "vendor-extensions")]
             Self::ForceControl => C::ForceControl,
-            #[cfg(feature = "vendor-extensions")]
             Self::StartStepping => C::StartStepping,
-            #[cfg(feature = "vendor-extensions")]
             Self::BodyHeight(_) => C::BodyHeight,
-            #[cfg(feature = "vendor-extensions")]
             Self::GoCharging => C::GoCharging,
-            #[cfg(feature = "vendor-extensions")]
             Self::LeaveCharger => C::LeaveCharger,
         }
     }
@@ -118,14 +186,8 @@ impl MotionCommand {
     /// The `Value` item as sent: a speed, a gait number, or the −1 placeholder.
     pub fn value(&self) -> MotionValue {
         match *self {
-            Self::Forward(s)
-            | Self::Backward(s)
-            | Self::TurnLeft(s)
-            | Self::TurnRight(s)
-            | Self::StrafeLeft(s)
-            | Self::StrafeRight(s) => MotionValue::Float(s.to_wire()),
+            Self::Move(_, speed) => MotionValue::Float(speed.to_wire()),
             Self::SwitchGait(gait) => MotionValue::Int(gait.raw()),
-            #[cfg(feature = "vendor-extensions")]
             Self::BodyHeight(v) => MotionValue::Float(v),
             _ => MotionValue::Float(PLACEHOLDER),
         }
@@ -135,32 +197,20 @@ impl MotionCommand {
     /// know or a gait value that is not an integer.
     pub fn from_parts(code: MotionCommandCode, value: f32) -> Option<Self> {
         use MotionCommandCode as C;
-        let speed = Speed::from_wire(value);
         Some(match code {
-            C::Forward => Self::Forward(speed),
-            C::Backward => Self::Backward(speed),
-            C::TurnLeft => Self::TurnLeft(speed),
-            C::TurnRight => Self::TurnRight(speed),
             C::ZeroVelocity => Self::ZeroVelocity,
-            C::StrafeLeft => Self::StrafeLeft(speed),
-            C::StrafeRight => Self::StrafeRight(speed),
             C::SoftEmergencyStop => Self::SoftEmergencyStop,
             C::StopStepping => Self::StopStepping,
             C::LieDown => Self::LieDown,
             C::SwitchGait => Self::SwitchGait(MotionGait::from_raw(integral(value)?)),
-            #[cfg(feature = "vendor-extensions")]
             C::StandUp => Self::StandUp,
-            #[cfg(feature = "vendor-extensions")]
             C::ForceControl => Self::ForceControl,
-            #[cfg(feature = "vendor-extensions")]
             C::StartStepping => Self::StartStepping,
-            #[cfg(feature = "vendor-extensions")]
             C::BodyHeight => Self::BodyHeight(value),
-            #[cfg(feature = "vendor-extensions")]
             C::GoCharging => Self::GoCharging,
-            #[cfg(feature = "vendor-extensions")]
             C::LeaveCharger => Self::LeaveCharger,
-            C::Unknown(_) => return None,
+            // The six directions, and codes this protocol version does not define.
+            _ => Self::Move(Direction::from_code(code)?, Speed::from_wire(value)),
         })
     }
 
@@ -172,17 +222,18 @@ impl MotionCommand {
     /// Largest speed the document allows, for the translation and rotation commands.
     pub fn speed_limit(&self) -> Option<f32> {
         match self {
-            Self::Forward(_) => Some(1.5),
-            Self::Backward(_) => Some(1.3),
-            Self::TurnLeft(_) | Self::TurnRight(_) => Some(0.45),
-            Self::StrafeLeft(_) | Self::StrafeRight(_) => Some(0.15),
+            Self::Move(direction, _) => Some(direction.speed_limit()),
             _ => None,
         }
     }
 
     /// Checks the command against the document before it is sent: speeds −1 or within
-    /// 0..=limit, gaits known.
+    /// 0..=limit, gaits known, and commands beyond V1.0.12 only with the
+    /// `vendor-extensions` feature.
     pub fn validate(&self) -> Result<(), ValidationError> {
+        if !SENDS_VENDOR_EXTENSIONS && self.code().is_vendor_extension() {
+            return Err(ValidationError::VendorExtension);
+        }
         if let (Some(max), MotionValue::Float(v)) = (self.speed_limit(), self.value())
             && v != -1.0
             && !(0.0..=max).contains(&v)
@@ -193,7 +244,6 @@ impl MotionCommand {
             Self::SwitchGait(gait) if !gait.is_known() => {
                 Err(ValidationError::UnknownCode { item: "Value" })
             }
-            #[cfg(feature = "vendor-extensions")]
             Self::BodyHeight(v) if !v.is_finite() => {
                 Err(ValidationError::NotFinite { item: "Value" })
             }
@@ -224,6 +274,7 @@ item_set! {
         /// `Value` as requested (a gait number arrives as an integral float).
         pub value: f32 = "Value";
         /// Success, or failure (a navigation task running, a bad speed).
+        #[cfg_attr(feature = "serde", serde(rename = "error_code"))]
         pub result: CommandResult = "ErrorCode";
     }
 }
@@ -275,6 +326,7 @@ item_set! {
     /// Type 2101 answer: whether the robot is localised after the request.
     pub struct RelocalizeAck {
         /// Localised or abnormal.
+        #[cfg_attr(feature = "serde", serde(rename = "error_code"))]
         pub result: LocalizationResult = "ErrorCode";
     }
 }

@@ -119,6 +119,7 @@ impl NavPoint {
 /// waypoints in order.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct NavTask {
     /// The points, in the order they are to be reached; never empty.
     pub points: heapless::Vec<NavPoint, MAX_NAV_POINTS>,
@@ -153,8 +154,10 @@ item_set! {
         /// Target point number, as requested.
         pub value: i32 = "Value";
         /// Succeeded, failed or cancelled.
+        #[cfg_attr(feature = "serde", serde(rename = "error_code"))]
         pub outcome: NavOutcome = "ErrorCode";
         /// Why; absent before protocol V1.0.9.
+        #[cfg_attr(feature = "serde", serde(rename = "error_status"))]
         pub status: ErrorStatus = "ErrorStatus", default ErrorStatus::Default;
     }
 }
@@ -164,6 +167,7 @@ item_set! {
     /// (indicator light).
     pub struct CommandAck {
         /// Whether the command succeeded.
+        #[cfg_attr(feature = "serde", serde(rename = "error_code"))]
         pub result: CommandResult = "ErrorCode";
     }
 }

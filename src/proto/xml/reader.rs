@@ -1,6 +1,7 @@
 //! A minimal XML tokenizer for the protocol's documents.
 //!
-//! It accepts what real robots and clients send (SPEC §3 and §5): a declaration in either
+//! It accepts what real robots and clients send (docs/protocol.md, "XML body" and "Beyond
+//! the document"): a declaration in either
 //! quote style or none, any whitespace, comments anywhere, attributes (ignored), and
 //! elements in any order. It refuses what the protocol never needs and what could be used
 //! against a small device: DTDs and entity declarations, CDATA, unknown entity references,

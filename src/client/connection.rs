@@ -1,0 +1,581 @@
+//! One connection to the robot: framing, message IDs, timeouts, reconnection.
+
+use embassy_time::{Duration, Instant, with_timeout};
+use embedded_io_async::{Error as _, ErrorKind, Read, Write};
+
+use super::{Backoff, ClientError, RobotClock};
+use crate::proto::codes::MessageType;
+use crate::proto::frame::{self, FrameDecoder, FrameError, MessageIds};
+use crate::proto::message::{
+    Battery, CommandAck, DecodeError, Decoded, Light, MotionAck, MotionCommand, MotorTemperatures,
+    NavResult, NavTask, NavTaskState, Perception, Relocalize, RelocalizeAck, Request, Response,
+    RobotStatus,
+};
+use crate::proto::outstanding::Outstanding;
+
+/// Frame buffer for answers: the largest, a real robot's 1002 answer with its extra items,
+/// is about 1.2 KiB.
+pub const RX_BUF: usize = 2048;
+/// Frame buffer for requests: a one-point 1003 request, the largest the panel sends, is
+/// about 0.6 KiB.
+pub const TX_BUF: usize = 1024;
+
+/// A byte stream to the robot that can be opened again after it failed.
+///
+/// On the board this wraps an embassy-net `TcpSocket`; on the host, a tokio `TcpStream`.
+#[allow(async_fn_in_trait)] // Used in one executor at a time; no Send bound is wanted.
+pub trait Transport: Read + Write {
+    /// Opens the connection, closing a previous one first.
+    async fn connect(&mut self) -> Result<(), ErrorKind>;
+    /// Closes the connection, so that the robot sees it gone.
+    async fn close(&mut self);
+}
+
+/// What went by on a connection that was not an answer to a request outstanding on it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Anomalies {
+    /// Frames whose message ID matched no outstanding request (late or unsolicited answers).
+    pub unsolicited: u32,
+    /// Stream errors the frame decoder skipped past: garbage, bad headers, oversized frames.
+    pub stream_errors: u32,
+}
+
+/// How many requests may wait for their answers on one connection. A stop path writes
+/// without waiting, at most every 250 ms, and a request is given up on after about a
+/// second, so a handful is in flight at most; beyond this the oldest is given up on.
+pub const MAX_OUTSTANDING: usize = 16;
+
+/// A write that has not gone into the transport after this long means the robot takes no
+/// more bytes (its receive window is closed): the connection is dropped rather than let a
+/// stop wait behind it.
+pub const WRITE_TIMEOUT: Duration = Duration::from_millis(200);
+
+/// An answer not here after this long is overdue: the robot is slow or not answering, and
+/// motion is no longer written to the connection (stops still are).
+pub const ANSWER_OVERDUE: Duration = Duration::from_millis(500);
+
+/// With requests outstanding and nothing received for this long, the robot is silent and the
+/// connection is given up on.
+pub const SILENT_AFTER: Duration = Duration::from_secs(2);
+
+/// This many requests given up on in a row also make the robot silent.
+pub const SILENT_TIMEOUTS: u8 = 2;
+
+/// A request written on a connection, as remembered until its answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Sent {
+    /// The request's Type.
+    pub message_type: MessageType,
+    /// The request's Command.
+    pub command: i32,
+    /// When it was written.
+    pub at: Instant,
+}
+
+/// An answer received, with the request it answers.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Answer {
+    /// The request's message ID.
+    pub message_id: u16,
+    /// The request it answers.
+    pub request: Sent,
+    /// The answer, or why it is no usable answer (Type 0, another Type, undecodable); the
+    /// connection stays usable either way.
+    pub result: Result<Response, ClientError>,
+}
+
+/// Whether the robot answers on a connection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Health {
+    /// Nothing is overdue.
+    Answering,
+    /// An answer has waited longer than [`ANSWER_OVERDUE`]: write no motion.
+    Overdue,
+    /// Nothing received for [`SILENT_AFTER`] with requests outstanding, or
+    /// [`SILENT_TIMEOUTS`] requests in a row given up on: close and reconnect.
+    Silent,
+}
+
+/// A connection to the robot: writes requests, matches answers to them by message ID.
+///
+/// Requests may be written without waiting for earlier answers ([`Connection::send`], then
+/// [`Connection::receive`]), which is how stops overtake anything pending; [`Connection::request`] and
+/// the typed calls send one request and wait for its answer.
+///
+/// Errors say whether the connection survived ([`ClientError::connection_usable`]); when it
+/// did not, the connection closes the transport and [`Connection::connect`] must succeed before the
+/// next request.
+pub struct Connection<T: Transport> {
+    transport: T,
+    connected: bool,
+    rx: FrameDecoder<RX_BUF>,
+    tx: [u8; TX_BUF],
+    ids: MessageIds,
+    clock: RobotClock,
+    backoff: Backoff,
+    anomalies: Anomalies,
+    /// Requests written and not answered yet.
+    outstanding: Outstanding<Sent, MAX_OUTSTANDING>,
+    /// Since when requests have waited with nothing received; `None` while nothing waits.
+    waiting_since: Option<Instant>,
+    /// Requests given up on since the last answer.
+    timeouts_in_a_row: u8,
+    /// Whether the robot has answered on this connection since it opened: only then does
+    /// the backoff start again from its minimum, so that a robot that accepts connections
+    /// and drops them at once is not hammered.
+    answered: bool,
+}
+
+impl<T: Transport> Connection<T> {
+    /// A connection over `transport`, not yet open, retrying with `backoff`.
+    pub fn new(transport: T, backoff: Backoff) -> Self {
+        Self {
+            transport,
+            connected: false,
+            rx: FrameDecoder::new(),
+            tx: [0; TX_BUF],
+            ids: MessageIds::new(),
+            clock: RobotClock::new(),
+            backoff,
+            anomalies: Anomalies::default(),
+            outstanding: Outstanding::new(),
+            waiting_since: None,
+            timeouts_in_a_row: 0,
+            answered: false,
+        }
+    }
+
+    /// Whether the connection is open.
+    pub fn is_connected(&self) -> bool {
+        self.connected
+    }
+
+    /// The robot's clock as learned from this connection's answers.
+    pub fn clock(&self) -> RobotClock {
+        self.clock
+    }
+
+    /// Adopts a clock learned elsewhere (a connection that sends little learns little by itself).
+    pub fn set_clock(&mut self, clock: RobotClock) {
+        self.clock = clock;
+    }
+
+    /// What went by that was not an answer, since the connection was made.
+    pub fn anomalies(&self) -> Anomalies {
+        self.anomalies
+    }
+
+    /// Makes one attempt to open the connection. On failure returns how long to wait
+    /// before the next attempt, growing exponentially up to the backoff's maximum.
+    pub async fn connect(&mut self) -> Result<(), Duration> {
+        self.disconnect().await;
+        match self.transport.connect().await {
+            Ok(()) => {
+                self.connected = true;
+                self.answered = false;
+                info!("connected to the robot");
+                Ok(())
+            }
+            Err(kind) => Err(self.retry_delay(kind)),
+        }
+    }
+
+    /// Closes the connection and forgets any partial answer and every outstanding request.
+    pub async fn disconnect(&mut self) {
+        if self.connected {
+            self.transport.close().await;
+            self.connected = false;
+        }
+        self.rx.clear();
+        self.outstanding.clear();
+        self.timeouts_in_a_row = 0;
+        self.waiting_since = None;
+    }
+
+    /// Gives up on a connection whose robot went silent; the next attempt waits for the
+    /// backoff, so a robot that accepts connections but never answers is not hammered.
+    pub async fn give_up(&mut self) -> Duration {
+        self.disconnect().await;
+        self.retry_delay(ErrorKind::TimedOut)
+    }
+
+    /// How long to wait before reconnecting after the connection was lost: not at all if
+    /// the robot had answered on it (a blip), else the backoff's next delay.
+    pub fn reconnect_delay(&mut self) -> Duration {
+        if core::mem::take(&mut self.answered) {
+            Duration::from_ticks(0)
+        } else {
+            self.retry_delay(ErrorKind::ConnectionReset)
+        }
+    }
+
+    /// The backoff's next delay, logged with why the connection failed.
+    fn retry_delay(&mut self, kind: ErrorKind) -> Duration {
+        let retry_in = self.backoff.next_delay();
+        warn!(
+            "connection failed ({:?}); retrying in {} ms",
+            kind,
+            retry_in.as_millis()
+        );
+        retry_in
+    }
+
+    /// Whether the robot answers on this connection at `now`.
+    pub fn health(&self, now: Instant) -> Health {
+        let waited = |since: Instant| now.saturating_duration_since(since);
+        if self.timeouts_in_a_row >= SILENT_TIMEOUTS
+            || self
+                .waiting_since
+                .is_some_and(|w| waited(w) >= SILENT_AFTER)
+        {
+            Health::Silent
+        } else if self
+            .outstanding
+            .oldest()
+            .is_some_and(|(_, oldest)| waited(oldest.at) >= ANSWER_OVERDUE)
+        {
+            Health::Overdue
+        } else {
+            Health::Answering
+        }
+    }
+
+    /// When [`Connection::health`] may next change without anything received.
+    pub fn health_deadline(&self) -> Option<Instant> {
+        let overdue = self
+            .outstanding
+            .oldest()
+            .map(|(_, oldest)| oldest.at.saturating_add(ANSWER_OVERDUE));
+        let silent = self.waiting_since.map(|w| w.saturating_add(SILENT_AFTER));
+        overdue.into_iter().chain(silent).min()
+    }
+
+    /// Gives up on the oldest request if it has waited `limit` or longer at `now`, and
+    /// returns it: its answer, if it comes, will be unsolicited.
+    pub fn expire(&mut self, now: Instant, limit: Duration) -> Option<(u16, Sent)> {
+        let (_, oldest) = self.outstanding.oldest()?;
+        if now.saturating_duration_since(oldest.at) < limit {
+            return None;
+        }
+        self.timeouts_in_a_row = self.timeouts_in_a_row.saturating_add(1);
+        self.outstanding.pop_oldest()
+    }
+
+    /// When the oldest outstanding request will have waited `limit`.
+    pub fn expiry(&self, limit: Duration) -> Option<Instant> {
+        self.outstanding
+            .oldest()
+            .map(|(_, sent)| sent.at.saturating_add(limit))
+    }
+
+    /// How many requests wait for their answers.
+    pub fn outstanding(&self) -> usize {
+        self.outstanding.len()
+    }
+
+    /// Sends `request` and waits up to `timeout` for its answer; `None` waits as long as
+    /// the connection lasts (a 1003 is answered only when the task ends). A late answer is
+    /// recognised by its message ID and skipped.
+    pub async fn request(
+        &mut self,
+        request: &Request,
+        timeout: Option<Duration>,
+    ) -> Result<Response, ClientError> {
+        let id = self.send(request).await?;
+        let answer = match timeout {
+            Some(limit) => match with_timeout(limit, self.answer_to(id)).await {
+                Ok(answer) => answer,
+                Err(_) => {
+                    self.outstanding.remove(id);
+                    self.timeouts_in_a_row = self.timeouts_in_a_row.saturating_add(1);
+                    Err(ClientError::Timeout)
+                }
+            },
+            None => self.answer_to(id).await,
+        };
+        answer.and_then(|answer| answer.result)
+    }
+
+    /// Encodes and writes one request without waiting for any answer; returns its message
+    /// ID. The write is bounded by [`WRITE_TIMEOUT`]: a robot that takes no more bytes
+    /// loses the connection rather than hold the caller.
+    pub async fn send(&mut self, request: &Request) -> Result<u16, ClientError> {
+        if !self.connected {
+            return Err(ClientError::NotConnected);
+        }
+        request.validate().map_err(ClientError::Invalid)?;
+        let id = self.ids.next_id();
+        let time = self.clock.at(Instant::now());
+        let len = frame::encode_with(&mut self.tx, id, |body| {
+            request.encode(&time, body).map_err(ClientError::Encode)
+        })?;
+        let bytes = self.tx.get(..len).unwrap_or_default();
+        // No flush: it would wait for the robot's acknowledgement, and the stack sends what
+        // is written without it.
+        let written = match with_timeout(WRITE_TIMEOUT, self.transport.write_all(bytes)).await {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(e)) => Err(ClientError::Io(e.kind())),
+            Err(_) => Err(ClientError::WriteTimeout),
+        };
+        if let Err(e) = written {
+            warn!("write failed ({:?}): closing the connection", e);
+            self.disconnect().await;
+            return Err(e);
+        }
+        let sent = Sent {
+            message_type: request.message_type(),
+            command: request.command(),
+            at: Instant::now(),
+        };
+        self.waiting_since.get_or_insert(sent.at);
+        if let Some((evicted, _)) = self.outstanding.push(id, sent) {
+            debug!("gave up on message {}: too many outstanding", evicted);
+        }
+        debug!(
+            "sent Type {} Command {} as message {}",
+            sent.message_type.raw(),
+            sent.command,
+            id
+        );
+        Ok(id)
+    }
+
+    /// Waits for the next answer to any outstanding request. Frames that answer none are
+    /// counted and skipped, so the connection never falls out of step.
+    ///
+    /// Cancel-safe: dropped while it waits, it loses nothing, so it can race a button in a
+    /// `select`. An error means the connection is gone (and closed).
+    pub async fn receive(&mut self) -> Result<Answer, ClientError> {
+        loop {
+            if let Some(answer) = self.next_buffered() {
+                return Ok(answer);
+            }
+            let n = match self.transport.read(self.rx.spare()).await {
+                Ok(0) => Err(ClientError::Closed),
+                Ok(n) => Ok(n),
+                Err(e) => Err(ClientError::Io(e.kind())),
+            };
+            match n {
+                Ok(n) => {
+                    // Any bytes show the robot alive, even the start of a large answer.
+                    if self.waiting_since.is_some() {
+                        self.waiting_since = Some(Instant::now());
+                    }
+                    self.rx.commit(n);
+                }
+                Err(e) => {
+                    self.disconnect().await;
+                    return Err(e);
+                }
+            }
+        }
+    }
+
+    /// Waits for the answer to message `id`, written with [`Connection::send`], as long as the
+    /// connection lasts; answers to other requests are dropped.
+    pub async fn answer(&mut self, id: u16) -> Result<Response, ClientError> {
+        self.answer_to(id).await.and_then(|answer| answer.result)
+    }
+
+    /// Waits for the answer to message `id`; answers to other requests are dropped (their
+    /// callers gave up on them).
+    async fn answer_to(&mut self, id: u16) -> Result<Answer, ClientError> {
+        loop {
+            let answer = self.receive().await?;
+            if answer.message_id == id {
+                return Ok(answer);
+            }
+        }
+    }
+
+    /// The next answer among the frames already received, if any.
+    fn next_buffered(&mut self) -> Option<Answer> {
+        while let Some(item) = self.rx.decode() {
+            let frame = match item {
+                Ok(frame) => frame,
+                Err(e) => {
+                    self.anomalies.stream_errors = self.anomalies.stream_errors.saturating_add(1);
+                    log_stream_error(e);
+                    continue;
+                }
+            };
+            let decoded = Response::decode(frame.asdu);
+            let request_error = matches!(
+                decoded,
+                Ok(Decoded {
+                    message: Response::RequestError(_),
+                    ..
+                })
+            );
+            let Some((message_id, request)) =
+                self.outstanding.answer(frame.message_id, request_error)
+            else {
+                self.anomalies.unsolicited = self.anomalies.unsolicited.saturating_add(1);
+                warn!("skipped a frame for message {}", frame.message_id);
+                continue;
+            };
+            self.timeouts_in_a_row = 0;
+            self.waiting_since = (!self.outstanding.is_empty()).then(Instant::now);
+            if !self.answered {
+                self.answered = true;
+                self.backoff.reset();
+            }
+            let result = match decoded {
+                Ok(decoded) => {
+                    self.clock.learn(decoded.time, Instant::now());
+                    check_type(request.message_type, decoded.message)
+                }
+                Err(DecodeError::UnknownType(t)) => Err(ClientError::UnknownType(t)),
+                Err(other) => Err(ClientError::Decode(other)),
+            };
+            return Some(Answer {
+                message_id,
+                request,
+                result,
+            });
+        }
+        None
+    }
+
+    /// 1002: the robot's real-time status.
+    pub async fn status(&mut self, timeout: Duration) -> Result<RobotStatus, ClientError> {
+        match self.request(&Request::Status, Some(timeout)).await? {
+            Response::Status(status) => Ok(status),
+            other => Err(unexpected(MessageType::Status, &other)),
+        }
+    }
+
+    /// 2001: battery.
+    pub async fn battery(&mut self, timeout: Duration) -> Result<Battery, ClientError> {
+        match self.request(&Request::Battery, Some(timeout)).await? {
+            Response::Battery(battery) => Ok(battery),
+            other => Err(unexpected(MessageType::Battery, &other)),
+        }
+    }
+
+    /// 2002: obstacle on the planned path.
+    pub async fn perception(&mut self, timeout: Duration) -> Result<Perception, ClientError> {
+        match self.request(&Request::Perception, Some(timeout)).await? {
+            Response::Perception(perception) => Ok(perception),
+            other => Err(unexpected(MessageType::Perception, &other)),
+        }
+    }
+
+    /// 1008: motor temperatures.
+    pub async fn motor_temperatures(
+        &mut self,
+        timeout: Duration,
+    ) -> Result<MotorTemperatures, ClientError> {
+        match self
+            .request(&Request::MotorTemperatures, Some(timeout))
+            .await?
+        {
+            Response::MotorTemperatures(t) => Ok(t),
+            other => Err(unexpected(MessageType::MotorTemperatures, &other)),
+        }
+    }
+
+    /// 1007: the navigation task's state. Send it on a different connection from the
+    /// one waiting for a 1003 answer (docs/protocol.md, "Type 1007: navigation task status").
+    pub async fn nav_status(&mut self, timeout: Duration) -> Result<NavTaskState, ClientError> {
+        match self.request(&Request::NavStatus, Some(timeout)).await? {
+            Response::NavStatus(state) => Ok(state),
+            other => Err(unexpected(MessageType::NavStatus, &other)),
+        }
+    }
+
+    /// 2: a motion command; the answer says whether the robot carried it out.
+    pub async fn motion(
+        &mut self,
+        command: MotionCommand,
+        timeout: Duration,
+    ) -> Result<MotionAck, ClientError> {
+        match self
+            .request(&Request::Motion(command), Some(timeout))
+            .await?
+        {
+            Response::Motion(_, ack) => Ok(ack),
+            other => Err(unexpected(MessageType::Motion, &other)),
+        }
+    }
+
+    /// 1101: the robot's indicator light.
+    pub async fn light(
+        &mut self,
+        light: Light,
+        timeout: Duration,
+    ) -> Result<CommandAck, ClientError> {
+        match self.request(&Request::Light(light), Some(timeout)).await? {
+            Response::Light(ack) => Ok(ack),
+            other => Err(unexpected(MessageType::Light, &other)),
+        }
+    }
+
+    /// 1004: cancels the navigation task. The cancelled task's 1003 answer arrives first,
+    /// on the connection that sent the 1003.
+    pub async fn cancel_navigation(
+        &mut self,
+        timeout: Duration,
+    ) -> Result<CommandAck, ClientError> {
+        match self.request(&Request::CancelNav, Some(timeout)).await? {
+            Response::CancelNav(ack) => Ok(ack),
+            other => Err(unexpected(MessageType::CancelNav, &other)),
+        }
+    }
+
+    /// 2101: relocalises the robot at a pose.
+    pub async fn relocalize(
+        &mut self,
+        pose: Relocalize,
+        timeout: Duration,
+    ) -> Result<RelocalizeAck, ClientError> {
+        match self
+            .request(&Request::Relocalize(pose), Some(timeout))
+            .await?
+        {
+            Response::Relocalize(ack) => Ok(ack),
+            other => Err(unexpected(MessageType::Relocalize, &other)),
+        }
+    }
+
+    /// 1003: runs a navigation task and waits for its end, up to `timeout` or, with `None`,
+    /// as long as the connection lasts. Use a connection of its own: the robot answers only when
+    /// the task ends, and stops the task if this connection drops (ErrorStatus 41802).
+    pub async fn navigate(
+        &mut self,
+        task: &NavTask,
+        timeout: Option<Duration>,
+    ) -> Result<NavResult, ClientError> {
+        match self
+            .request(&Request::NavTask(task.clone()), timeout)
+            .await?
+        {
+            Response::NavResult(result) => Ok(result),
+            other => Err(unexpected(MessageType::NavTask, &other)),
+        }
+    }
+}
+
+/// The answer as a result: Type 0 and answers of another Type than the request are errors.
+fn check_type(expected: MessageType, answer: Response) -> Result<Response, ClientError> {
+    match answer {
+        Response::RequestError(error) => Err(ClientError::RequestError(error.code)),
+        _ if answer.message_type() != expected => Err(unexpected(expected, &answer)),
+        _ => Ok(answer),
+    }
+}
+
+fn unexpected(expected: MessageType, got: &Response) -> ClientError {
+    ClientError::UnexpectedAnswer {
+        expected,
+        got: got.message_type(),
+    }
+}
+
+fn log_stream_error(e: FrameError) {
+    warn!("skipped bytes on the connection: {:?}", e);
+}

@@ -1,0 +1,423 @@
+//! End to end: the QEMU firmware (mps2-an386) booted by x30-qemu, connected over QEMU's user
+//! network to an x30-sim running in this process, driven through the virtual panel's UART.
+//!
+//! The firmware is built once (`x30-qemu --build-only`, or taken from `X30_QEMU_FIRMWARE`)
+//! and booted afresh for each test.
+//! One QEMU runs at a time: the rate assertions need the CPU, and a 2-core machine runs the
+//! whole file in well under two minutes that way. Without `qemu-system-arm` every test
+//! prints "SKIPPED: qemu-system-arm missing" and returns; CI installs it (scripts/setup.sh).
+
+mod common;
+
+use std::thread::sleep;
+use std::time::{Duration, Instant};
+
+use common::*;
+use x30_panel::proto::codes::{ErrorStatus, MotionState, NavOutcome};
+use x30_sim::Simulator;
+
+/// The Type 2 requests logged since `since` (simulator seconds): (time, Command).
+fn motions(sim: &Simulator, since: f64) -> Vec<(f64, i32)> {
+    sim.requests()
+        .iter()
+        .filter(|e| e.t >= since && e.message_type == Some(2))
+        .filter_map(|e| Some((e.t, e.command?)))
+        .collect()
+}
+
+/// Polls `cond` until it holds or `limit` passes; whether it held.
+fn eventually(limit: Duration, mut cond: impl FnMut() -> bool) -> bool {
+    let deadline = Instant::now() + limit;
+    loop {
+        if cond() {
+            return true;
+        }
+        if Instant::now() >= deadline {
+            return false;
+        }
+        sleep(Duration::from_millis(50));
+    }
+}
+
+/// The log of `sim`, one request a line, for failure messages.
+fn log_text(sim: &Simulator) -> String {
+    sim.requests()
+        .iter()
+        .map(|e| {
+            format!(
+                "{:8.3} conn {} type {:?} command {:?}",
+                e.t, e.conn, e.message_type, e.command
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn holding_forward_repeats_command_1_at_3_to_5_hz_then_sends_zero_velocity() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+forward");
+    sleep(Duration::from_secs(2));
+    let released = sim.elapsed().as_secs_f64();
+    panel.send("-forward");
+    assert!(
+        eventually(REACTION, || motions(&sim, released)
+            .iter()
+            .any(|m| m.1 == 6)),
+        "no Command 6 after the release\n{}",
+        log_text(&sim)
+    );
+    sleep(Duration::from_millis(600));
+    finish(panel);
+
+    let motions = motions(&sim, pressed);
+    let forward: Vec<f64> = motions.iter().filter(|m| m.1 == 1).map(|m| m.0).collect();
+    let log = log_text(&sim);
+    assert!(
+        forward.len() >= 6,
+        "{} forwards in 2 s\n{log}",
+        forward.len()
+    );
+    let (first, last) = (forward[0], forward[forward.len() - 1]);
+    let rate = (forward.len() - 1) as f64 / (last - first);
+    assert!(
+        (3.0..=5.0).contains(&rate),
+        "forward at {rate:.2} Hz\n{log}"
+    );
+    assert!(
+        first - pressed < 0.5,
+        "first forward {:.3} s after the press\n{log}",
+        first - pressed
+    );
+    // Nothing between the repeats but forwards, then zero velocity, then no more forwards.
+    let zero = motions
+        .iter()
+        .position(|m| m.1 == 6)
+        .unwrap_or_else(|| panic!("no Command 6\n{log}"));
+    assert!(motions[..zero].iter().all(|m| m.1 == 1), "{log}");
+    assert!(motions[zero].0 >= last, "{log}");
+    assert!(
+        motions[zero].0 - released < 0.5,
+        "zero velocity late\n{log}"
+    );
+    assert!(
+        motions[zero..].iter().all(|m| m.1 != 1),
+        "forward after the release\n{log}"
+    );
+}
+
+#[test]
+fn estop_during_motion_sends_command_13_and_stops_the_repeats() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+forward");
+    sleep(Duration::from_millis(1200));
+    panel.send("+estop");
+    assert!(
+        eventually(REACTION, || motions(&sim, pressed)
+            .iter()
+            .any(|m| m.1 == 13)),
+        "no Command 13\n{}",
+        log_text(&sim)
+    );
+    // Forward stays held through the e-stop and after its release: still no motion.
+    sleep(Duration::from_millis(1500));
+    panel.send("-estop");
+    sleep(Duration::from_millis(1000));
+    panel.send("-forward");
+    sleep(Duration::from_millis(300));
+    finish(panel);
+
+    let motions = motions(&sim, pressed);
+    let log = log_text(&sim);
+    let estop = motions.iter().position(|m| m.1 == 13).expect("Command 13");
+    assert!(
+        motions[..estop].iter().filter(|m| m.1 == 1).count() >= 3,
+        "the robot was not moving\n{log}"
+    );
+    assert!(
+        motions[estop..].iter().all(|m| m.1 != 1),
+        "Command 1 after the e-stop\n{log}"
+    );
+    assert_eq!(sim.snapshot().motion_state, MotionState::SoftEmergencyStop);
+}
+
+#[test]
+fn dock_then_cancel_sends_1003_then_1004_and_the_task_ends_cancelled() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = docking(&turn, &sim);
+    sleep(Duration::from_millis(1000));
+    panel.send("+cancel");
+    panel.send("-cancel");
+    assert!(
+        eventually(REACTION, || sim.snapshot().last_task.is_some()),
+        "the task did not end\n{}",
+        log_text(&sim)
+    );
+    sleep(Duration::from_millis(500));
+    finish(panel);
+
+    let log = sim.requests();
+    let text = log_text(&sim);
+    let time_of = |ty: i32| {
+        log.iter()
+            .find(|e| e.message_type == Some(ty))
+            .map(|e| e.t)
+            .unwrap_or_else(|| panic!("no {ty}\n{text}"))
+    };
+    assert!(time_of(1003) < time_of(1004), "{text}");
+    let last = sim.snapshot().last_task.expect("a task ended");
+    assert_eq!(last.status, ErrorStatus::TaskCancelled, "{text}");
+    assert_eq!(last.status.raw(), 8962);
+    assert_eq!(last.outcome, NavOutcome::Cancelled);
+}
+
+#[test]
+fn after_the_robot_drops_the_connection_the_firmware_reconnects_and_polls_again() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let panel = boot(&turn, &sim);
+
+    assert!(
+        eventually(REACTION, || sim
+            .requests()
+            .iter()
+            .any(|e| e.message_type == Some(1002))),
+        "no polling before the drop\n{}",
+        log_text(&sim)
+    );
+    let old = sim.requests().iter().map(|e| e.conn).max().unwrap_or(0);
+    let dropped = sim.elapsed().as_secs_f64();
+    sim.drop_connections();
+    let polled_again = || {
+        sim.requests()
+            .iter()
+            .any(|e| e.t > dropped && e.conn > old && e.message_type == Some(1002))
+    };
+    assert!(
+        eventually(REACTION, polled_again),
+        "no 1002 on a new connection after the drop\n{}",
+        log_text(&sim)
+    );
+    // And it keeps polling there.
+    sleep(Duration::from_millis(1500));
+    let later = sim
+        .requests()
+        .iter()
+        .filter(|e| e.t > dropped && e.conn > old && e.message_type == Some(1002))
+        .count();
+    assert!(
+        later >= 2,
+        "{later} polls after the reconnect\n{}",
+        log_text(&sim)
+    );
+    finish(panel);
+}
+
+#[test]
+fn leds_follow_the_robots_battery_and_faults() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let panel = boot(&turn, &sim);
+    assert!(
+        sim.requests().iter().any(|e| e.message_type == Some(1002)),
+        "link on before any status was read\n{}",
+        log_text(&sim)
+    );
+
+    let from = panel.stdout.len();
+    sim.robot(|r| r.set_battery(15.0));
+    let (at, _) = panel.expect_stdout(from, REACTION, "`led fault on` at 15 %", |l| {
+        l == "led fault on"
+    });
+    sim.robot(|r| r.set_battery(90.0));
+    let (at, _) = panel.expect_stdout(at + 1, REACTION, "`led fault off` at 90 %", |l| {
+        l == "led fault off"
+    });
+    // A motor over 80 °C is a fault of its own (MotorState 1).
+    sim.robot(|r| r.set_motor_temperatures(95.0));
+    let (at, _) = panel.expect_stdout(
+        at + 1,
+        REACTION,
+        "`led fault on` when a motor overheats",
+        |l| l == "led fault on",
+    );
+    sim.robot(|r| r.set_motor_temperatures(40.0));
+    panel.expect_stdout(
+        at + 1,
+        REACTION,
+        "`led fault off` when the motors cool",
+        |l| l == "led fault off",
+    );
+    finish(panel);
+}
+
+/// The virtual panel booted against `sim`, with a navigation task to the dock running.
+fn docking(turn: &Turn, sim: &Simulator) -> Running {
+    far_from_dock(sim);
+    let mut panel = boot(turn, sim);
+    panel.send("+dock");
+    panel.send("-dock");
+    assert!(
+        eventually(REACTION, || sim.snapshot().task.is_some()),
+        "no navigation task started\n{}",
+        log_text(sim)
+    );
+    panel
+}
+
+/// The simulator seconds of the first Type 2 request with `command` at or after `since`.
+fn first_command(sim: &Simulator, since: f64, command: i32) -> Option<f64> {
+    motions(sim, since)
+        .into_iter()
+        .find(|(_, c)| *c == command)
+        .map(|(t, _)| t)
+}
+
+#[test]
+fn estop_pressed_during_an_outage_is_sent_first_when_the_robot_is_back() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+    sim.refuse_connections(Duration::from_secs(2));
+    sleep(Duration::from_millis(300));
+    panel.send("+estop");
+    sleep(Duration::from_millis(1700));
+    let back = sim.elapsed().as_secs_f64();
+    assert!(
+        eventually(REACTION, || first_command(&sim, back, 13).is_some()),
+        "no Command 13 after the robot came back\n{}",
+        log_text(&sim)
+    );
+    let first = sim
+        .first_on_connection_of(|e| e.t >= back && e.message_type == Some(2))
+        .expect("a command connection after the outage");
+    assert_eq!(
+        (first.message_type, first.command),
+        (Some(2), Some(13)),
+        "the e-stop is the first request on the new command connection\n{}",
+        log_text(&sim)
+    );
+    assert!(eventually(REACTION, || sim.snapshot().motion_state
+        == MotionState::SoftEmergencyStop));
+    panel.send("-estop");
+    finish(panel);
+}
+
+#[test]
+fn a_refused_estop_is_repeated_until_the_robot_confirms_it() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+    sim.set_faults(x30_sim::Faults {
+        refuse_estops: 2,
+        ..Default::default()
+    });
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+estop");
+    panel.send("-estop");
+    assert!(
+        eventually(REACTION, || sim.snapshot().motion_state
+            == MotionState::SoftEmergencyStop),
+        "the robot never reached soft e-stop\n{}",
+        log_text(&sim)
+    );
+    sleep(Duration::from_millis(1000));
+    let estops = motions(&sim, pressed)
+        .into_iter()
+        .filter(|(_, c)| *c == 13)
+        .count();
+    assert!(
+        (3..=5).contains(&estops),
+        "{estops} e-stops: two refused, one taken, none after the confirmation\n{}",
+        log_text(&sim)
+    );
+    finish(panel);
+}
+
+#[test]
+fn a_half_open_robot_gets_stops_at_once_and_the_panel_reconnects() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+    let old = sim.requests().iter().map(|e| e.conn).max().unwrap_or(0);
+    panel.send("+forward");
+    sleep(Duration::from_millis(500));
+    sim.set_faults(x30_sim::Faults {
+        mute: true,
+        ..Default::default()
+    });
+    let muted = sim.elapsed().as_secs_f64();
+    sleep(Duration::from_millis(300));
+    let released = sim.elapsed().as_secs_f64();
+    panel.send("-forward");
+    panel.send("+estop");
+    assert!(
+        eventually(REACTION, || first_command(&sim, released, 6).is_some()
+            && first_command(&sim, released, 13).is_some()),
+        "zero velocity and e-stop reach a robot that does not answer\n{}",
+        log_text(&sim)
+    );
+    let zero = first_command(&sim, released, 6).unwrap() - released;
+    let estop = first_command(&sim, released, 13).unwrap() - released;
+    assert!(
+        zero < 0.5 && estop < 0.5,
+        "zero velocity after {zero:.3} s, e-stop after {estop:.3} s\n{}",
+        log_text(&sim)
+    );
+    let from = panel.stdout.len();
+    panel.expect_stdout(from, REACTION, "`led link blink-fast`", |l| {
+        l == "led link blink-fast" || l == "led link blink"
+    });
+    assert!(
+        eventually(REACTION, || sim
+            .requests()
+            .iter()
+            .any(|e| e.t > muted && e.conn > old)),
+        "no new connection to the silent robot\n{}",
+        log_text(&sim)
+    );
+    panel.send("-estop");
+    finish(panel);
+}
+
+#[test]
+fn stop_during_a_navigation_task_sends_1004_and_zero_velocity() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = docking(&turn, &sim);
+    sleep(Duration::from_millis(500));
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+stop");
+    panel.send("-stop");
+    assert!(
+        eventually(REACTION, || sim.snapshot().last_task.is_some()),
+        "the task did not end\n{}",
+        log_text(&sim)
+    );
+    let log = sim.requests();
+    assert!(
+        log.iter()
+            .any(|e| e.t >= pressed && e.message_type == Some(1004)),
+        "no 1004 after stop\n{}",
+        log_text(&sim)
+    );
+    assert!(
+        first_command(&sim, pressed, 6).is_some(),
+        "no zero velocity\n{}",
+        log_text(&sim)
+    );
+    assert_eq!(
+        sim.snapshot().last_task.expect("ended").status,
+        ErrorStatus::TaskCancelled
+    );
+    finish(panel);
+}

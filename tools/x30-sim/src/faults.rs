@@ -1,0 +1,419 @@
+//! Fault injection: answers made to look like a difficult robot or a difficult network.
+//!
+//! [`Faults`] is the configuration; the functions here alter the bytes the protocol core's
+//! encoder produced (never writing a document of their own), so every answer starts out
+//! exactly as a correct robot would send it.
+
+use std::fmt;
+use std::str::FromStr;
+use std::time::{Duration, Instant};
+
+/// The Type every answer carries under [`Faults::unknown_type`]: RTK position, added by
+/// vendor software after V1.0.12 (docs/protocol.md, "Unknown Types"), so a client built for
+/// V1.0.12 does not know it.
+pub const UNKNOWN_TYPE: i32 = 2102;
+
+/// Added to an answer's message ID to get the ID of the extra frame [`Faults::merge`]
+/// sends with it (wrapping at 65535).
+pub const MERGED_ID_OFFSET: u16 = 0x8000;
+
+/// The bytes [`Faults::garbage`] puts before each answer frame. They contain no sync
+/// sequence, but do contain a lone `EB` and `EB 90`, so a receiver that resynchronises
+/// byte by byte is exercised.
+pub const GARBAGE: &[u8] = &[0x55, 0xAA, 0x00, 0xEB, 0x90, 0x00, 0x7F, 0x0A];
+
+/// Items a real robot sends that the document does not list (docs/protocol.md, "Extra
+/// items"), one line each, in
+/// the encoder's layout. [`Faults::unknown_items`] spreads them between the documented
+/// ones.
+pub const UNKNOWN_ITEMS: [&[u8]; 5] = [
+    b"    <AngleYaw>-0.00023393621</AngleYaw>\n",
+    b"    <CurRuntime>5321</CurRuntime>\n",
+    b"    <SumRuntime>2147483</SumRuntime>\n",
+    b"    <RTKState>0</RTKState>\n",
+    b"    <MapUpdateState>0</MapUpdateState>\n",
+];
+
+/// How answers and connections misbehave. The default is a well-behaved robot.
+///
+/// Every field can be changed while the simulator runs ([`crate::Simulator::set_faults`]).
+/// Each answer uses the faults in force when it is written; `drop_after`, `mute` and
+/// `refuse_estops` also count as each request arrives, and `refuse_connections_until` as
+/// each connection arrives.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct Faults {
+    /// Wait this long before writing each answer, counted from when its request arrived
+    /// (for a 1003 answer, from when the task ended).
+    pub delay: Duration,
+    /// Extra delay for the answers of some Types, added to `delay`: (Type, delay) pairs,
+    /// the last pair for a Type counting. A delayed answer holds up no other answer on its
+    /// connection: each is written when its own delay expires, so answers may leave in
+    /// another order than their requests came (clients match them by message ID). A write
+    /// carrying several answers (a cancel's) waits for the longest of their delays.
+    pub type_delays: Vec<(i32, Duration)>,
+    /// A half-open robot: requests are still read and logged, but neither acted on nor
+    /// answered (not even with Type 0), and connections stay open. Not acting means a
+    /// Command 13 stops nothing, a 1003 starts no task, and motion repeats keep nothing
+    /// going (the watchdog stops the robot). Answers that fall due while muted, a running
+    /// task's included, are discarded rather than kept, so unmuting answers new requests
+    /// only.
+    pub mute: bool,
+    /// Until this moment, new connections are accepted and closed at once without reading;
+    /// setting it to a moment still ahead also closes every open connection.
+    /// [`crate::Simulator::refuse_connections`] sets it from a duration.
+    pub refuse_connections_until: Option<Instant>,
+    /// Refuse this many of the next soft emergency stops (Type 2 Command 13): each is
+    /// answered with ErrorCode 1, leaves the motion state as it was, and counts this down.
+    pub refuse_estops: u32,
+    /// Close each connection when it has received this many frames (malformed ones
+    /// included), without answering the last one.
+    pub drop_after: Option<u64>,
+    /// Put [`GARBAGE`] before each answer frame, in the same write.
+    pub garbage: bool,
+    /// Write each answer in chunks of this many bytes, about 1 ms apart, each its own write.
+    /// `None` (or 0) writes each answer whole.
+    pub split: Option<usize>,
+    /// Write each answer together with an unsolicited 1002 status answer whose message ID
+    /// is the answer's plus [`MERGED_ID_OFFSET`], in one write, the answer first.
+    pub merge: bool,
+    /// Answer with Type [`UNKNOWN_TYPE`] instead of the real Type, keeping the message ID,
+    /// Command and items.
+    pub unknown_type: bool,
+    /// Insert [`UNKNOWN_ITEMS`] between the documented items of every answer.
+    pub unknown_items: bool,
+    /// The XML declaration of answers.
+    pub declaration: Declaration,
+}
+
+impl Faults {
+    /// How long after its request an answer of Type `message_type` is written: `delay`
+    /// plus that Type's entry in `type_delays`, if any.
+    pub fn delay_for(&self, message_type: i32) -> Duration {
+        let extra = self
+            .type_delays
+            .iter()
+            .rev()
+            .find(|(t, _)| *t == message_type)
+            .map_or(Duration::ZERO, |(_, d)| *d);
+        self.delay.saturating_add(extra)
+    }
+
+    /// Whether connections arriving at `now` are refused.
+    pub fn refuses_connections(&self, now: Instant) -> bool {
+        self.refuse_connections_until
+            .is_some_and(|until| now < until)
+    }
+}
+
+/// The moment `duration` after `now`; a duration too long for the clock counts as a year.
+pub fn after(now: Instant, duration: Duration) -> Instant {
+    now.checked_add(duration)
+        .or_else(|| now.checked_add(A_YEAR))
+        .unwrap_or(now)
+}
+
+/// Stands in for a duration too long to add to the clock.
+const A_YEAR: Duration = Duration::from_secs(365 * 24 * 3600);
+
+/// The XML declaration answers start with (real traffic has all three: docs/protocol.md,
+/// "Declaration and layout variants").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Declaration {
+    /// `<?xml version="1.0" encoding="UTF-8"?>`, as the encoder writes it.
+    #[default]
+    Double,
+    /// `<?xml version='1.0' encoding='utf-8'?>`, as some of the document's samples.
+    Single,
+    /// No declaration at all.
+    None,
+}
+
+impl Declaration {
+    /// The name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Double => "double",
+            Self::Single => "single",
+            Self::None => "none",
+        }
+    }
+}
+
+impl fmt::Display for Declaration {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Declaration {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "double" => Ok(Self::Double),
+            "single" => Ok(Self::Single),
+            "none" => Ok(Self::None),
+            other => Err(format!(
+                "unknown declaration {other:?}: expected double, single or none"
+            )),
+        }
+    }
+}
+
+const SINGLE_DECLARATION: &[u8] = b"<?xml version='1.0' encoding='utf-8'?>";
+
+/// Alters an encoded XML body as the faults ask: extra items, another Type, another
+/// declaration. Without those faults the body comes back unchanged.
+pub fn alter_body(body: &[u8], faults: &Faults) -> Vec<u8> {
+    let mut body = body.to_vec();
+    if faults.unknown_items {
+        body = insert_unknown_items(&body);
+    }
+    if faults.unknown_type {
+        body = replace_type(&body, UNKNOWN_TYPE);
+    }
+    if faults.declaration != Declaration::Double {
+        body = replace_declaration(&body, faults.declaration);
+    }
+    body
+}
+
+/// The bytes of one write: the frames in order (answers, and the extra frames of
+/// [`Faults::merge`]), each preceded by [`GARBAGE`] if asked.
+pub fn wire_bytes(frames: &[Vec<u8>], faults: &Faults) -> Vec<u8> {
+    let garbage = if faults.garbage { GARBAGE.len() } else { 0 };
+    let mut out = Vec::with_capacity(frames.iter().map(|f| garbage + f.len()).sum());
+    for frame in frames {
+        if faults.garbage {
+            out.extend_from_slice(GARBAGE);
+        }
+        out.extend_from_slice(frame);
+    }
+    out
+}
+
+/// Replaces the leading `<?xml …?>` declaration (and the line break after it).
+fn replace_declaration(body: &[u8], declaration: Declaration) -> Vec<u8> {
+    let rest = match body.strip_prefix(b"<?xml") {
+        Some(_) => find(body, b"?>").map_or(body, |end| {
+            let after = body.get(end + 2..).unwrap_or_default();
+            after.strip_prefix(b"\n").unwrap_or(after)
+        }),
+        None => body,
+    };
+    let mut out = Vec::with_capacity(body.len());
+    match declaration {
+        Declaration::Double => return body.to_vec(),
+        Declaration::Single => {
+            out.extend_from_slice(SINGLE_DECLARATION);
+            out.push(b'\n');
+        }
+        Declaration::None => {}
+    }
+    out.extend_from_slice(rest);
+    out
+}
+
+/// Replaces the text of the first `<Type>` element.
+fn replace_type(body: &[u8], message_type: i32) -> Vec<u8> {
+    let (Some(open), Some(close)) = (find(body, b"<Type>"), find(body, b"</Type>")) else {
+        return body.to_vec();
+    };
+    let start = open + b"<Type>".len();
+    if close < start {
+        return body.to_vec();
+    }
+    let mut out = body.get(..start).unwrap_or_default().to_vec();
+    out.extend_from_slice(message_type.to_string().as_bytes());
+    out.extend_from_slice(body.get(close..).unwrap_or_default());
+    out
+}
+
+/// Spreads [`UNKNOWN_ITEMS`] through the first `<Items>` block: one before each documented
+/// item while they last, the rest after the last one.
+fn insert_unknown_items(body: &[u8]) -> Vec<u8> {
+    if let Some(at) = find(body, b"<Items/>") {
+        let mut out = body.get(..at).unwrap_or_default().to_vec();
+        out.extend_from_slice(b"<Items>\n");
+        UNKNOWN_ITEMS.iter().for_each(|i| out.extend_from_slice(i));
+        out.extend_from_slice(b"  </Items>");
+        out.extend_from_slice(body.get(at + b"<Items/>".len()..).unwrap_or_default());
+        return out;
+    }
+    let (Some(open), Some(close)) = (find(body, b"<Items>"), find(body, b"</Items>")) else {
+        return body.to_vec();
+    };
+    let start = open + b"<Items>".len();
+    let Some(content) = body.get(start..close) else {
+        return body.to_vec();
+    };
+    // The encoder writes one item per line; the last piece is the indentation of </Items>.
+    let pieces: Vec<&[u8]> = content.split_inclusive(|&b| b == b'\n').collect();
+    let is_item = |piece: &&[u8]| piece.contains(&b'<');
+    let last_item = pieces.iter().rposition(is_item);
+    let mut extras = UNKNOWN_ITEMS.iter();
+    let mut out = body.get(..start).unwrap_or_default().to_vec();
+    for (i, piece) in pieces.iter().enumerate() {
+        if is_item(piece)
+            && let Some(extra) = extras.next()
+        {
+            out.extend_from_slice(extra);
+        }
+        out.extend_from_slice(piece);
+        if Some(i) == last_item {
+            extras.by_ref().for_each(|e| out.extend_from_slice(e));
+        }
+    }
+    out.extend_from_slice(body.get(close..).unwrap_or_default());
+    out
+}
+
+/// Position of the first occurrence of `needle` in `haystack`.
+fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
+    haystack.windows(needle.len()).position(|w| w == needle)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use x30_panel::proto::codes::CommandResult;
+    use x30_panel::proto::message::{Battery, CommandAck, Response};
+    use x30_panel::proto::time::Timestamp;
+
+    fn encode(response: &Response) -> Vec<u8> {
+        let mut buf = [0u8; 2048];
+        let n = response
+            .encode(&Timestamp::DOCUMENT_EPOCH, &mut buf)
+            .unwrap();
+        buf[..n].to_vec()
+    }
+
+    fn ack() -> Response {
+        Response::CancelNav(CommandAck {
+            result: CommandResult::Success,
+        })
+    }
+
+    fn text(bytes: &[u8]) -> &str {
+        std::str::from_utf8(bytes).unwrap()
+    }
+
+    #[test]
+    fn no_faults_change_nothing() {
+        let body = encode(&ack());
+        assert_eq!(alter_body(&body, &Faults::default()), body);
+        assert_eq!(
+            wire_bytes(&[b"frame".to_vec()], &Faults::default()),
+            b"frame"
+        );
+    }
+
+    #[test]
+    fn declarations() {
+        let body = encode(&ack());
+        let single = Faults {
+            declaration: Declaration::Single,
+            ..Faults::default()
+        };
+        let none = Faults {
+            declaration: Declaration::None,
+            ..Faults::default()
+        };
+        let single = alter_body(&body, &single);
+        assert!(
+            text(&single).starts_with("<?xml version='1.0' encoding='utf-8'?>\n<PatrolDevice>")
+        );
+        let none = alter_body(&body, &none);
+        assert!(text(&none).starts_with("<PatrolDevice>"));
+        for altered in [single, none] {
+            assert_eq!(Response::decode(&altered).unwrap().message, ack());
+        }
+        assert_eq!("none".parse(), Ok(Declaration::None));
+        assert!("triple".parse::<Declaration>().is_err());
+    }
+
+    #[test]
+    fn unknown_items_sit_between_the_documented_ones_and_are_skipped() {
+        let battery = Response::Battery(Battery {
+            voltage: 55,
+            current: 800,
+            remaining_capacity: 1800,
+            nominal_capacity: 2004,
+            cycles: 12,
+            protected_state: x30_panel::proto::codes::ProtectedState::Normal,
+            battery_level: 90,
+            battery_temperature: Some(28.5),
+        });
+        let faults = Faults {
+            unknown_items: true,
+            ..Faults::default()
+        };
+        let altered = alter_body(&encode(&battery), &faults);
+        let xml = text(&altered);
+        let at = |s: &str| xml.find(s).unwrap();
+        assert!(at("<AngleYaw>") < at("<Voltage>"));
+        assert!(at("<Voltage>") < at("<CurRuntime>") && at("<CurRuntime>") < at("<Current>"));
+        assert!(at("<MapUpdateState>") < at("<BatteryLevel>"));
+        assert_eq!(Response::decode(&altered).unwrap().message, battery);
+        // One documented item: the extras go round it.
+        let altered = alter_body(&encode(&ack()), &faults);
+        let xml = text(&altered);
+        assert!(xml.find("<AngleYaw>").unwrap() < xml.find("<ErrorCode>").unwrap());
+        assert!(xml.find("<RTKState>").unwrap() > xml.find("<ErrorCode>").unwrap());
+        assert_eq!(Response::decode(&altered).unwrap().message, ack());
+    }
+
+    #[test]
+    fn unknown_type_keeps_everything_else() {
+        let faults = Faults {
+            unknown_type: true,
+            ..Faults::default()
+        };
+        let body = encode(&ack());
+        let altered = alter_body(&body, &faults);
+        assert_eq!(
+            text(&altered),
+            text(&body).replace("<Type>1004</Type>", "<Type>2102</Type>")
+        );
+    }
+
+    #[test]
+    fn type_delays_add_to_the_delay_and_the_last_pair_counts() {
+        let faults = Faults {
+            delay: Duration::from_millis(10),
+            type_delays: vec![
+                (1002, Duration::from_millis(100)),
+                (1002, Duration::from_millis(200)),
+                (0, Duration::from_millis(5)),
+            ],
+            ..Faults::default()
+        };
+        assert_eq!(faults.delay_for(1002), Duration::from_millis(210));
+        assert_eq!(faults.delay_for(0), Duration::from_millis(15));
+        assert_eq!(faults.delay_for(2001), Duration::from_millis(10));
+    }
+
+    #[test]
+    fn refusal_ends_at_its_moment() {
+        let now = Instant::now();
+        let later = now + Duration::from_secs(1);
+        let faults = Faults {
+            refuse_connections_until: Some(later),
+            ..Faults::default()
+        };
+        assert!(faults.refuses_connections(now));
+        assert!(!faults.refuses_connections(later));
+        assert!(!Faults::default().refuses_connections(now));
+    }
+
+    #[test]
+    fn garbage_precedes_each_frame_and_holds_no_sync() {
+        assert!(!GARBAGE.windows(4).any(|w| w == [0xEB, 0x90, 0xEB, 0x90]));
+        let faults = Faults {
+            garbage: true,
+            ..Faults::default()
+        };
+        let bytes = wire_bytes(&[b"AB".to_vec(), b"CD".to_vec()], &faults);
+        assert_eq!(bytes, [GARBAGE, b"AB", GARBAGE, b"CD"].concat());
+    }
+}

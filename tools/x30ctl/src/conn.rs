@@ -1,0 +1,790 @@
+//! A blocking connection to robot_server: connect, send requests, wait for their answers.
+//!
+//! This is where the mistakes of existing clients (docs/protocol.md, "Mistakes of existing
+//! clients") are avoided:
+//! - bytes go through a [`FrameDecoder`], so split frames, several frames in one read and
+//!   garbage before a sync sequence are all handled, and the stream resynchronises;
+//! - answers are matched to requests by the protocol core's [`Outstanding`]: by message ID
+//!   (from a [`MessageIds`] counter), and a Type 0 answer whose ID matches no outstanding
+//!   request answers the oldest one; frames that answer no request are reported on stderr
+//!   and skipped, never taken for the answer (late answers to requests given up on are
+//!   skipped quietly);
+//! - an answer of a Type this protocol version does not know is an error naming the Type,
+//!   not a stall;
+//! - every read has a timeout, so nothing waits forever unless the caller asks for it
+//!   (the 1003 answer), and even then the caller is polled so Ctrl-C is seen.
+
+use std::io::{self, Read, Write};
+use std::net::{SocketAddr, TcpStream, ToSocketAddrs};
+use std::time::{Duration, Instant};
+
+use x30_panel::proto::codes::MessageType;
+use x30_panel::proto::frame::{
+    self, EncodeError, FrameDecoder, FrameError, HEADER_LEN, MessageIds,
+};
+use x30_panel::proto::message::{DecodeError, Decoded, MAX_REQUEST_LEN, Request, Response};
+use x30_panel::proto::outstanding::Outstanding;
+use x30_panel::proto::time::Timestamp;
+use x30_panel::proto::xml::writer::WriteError;
+
+use crate::error::Error;
+use crate::render::{self, warn};
+
+/// The robot_server port.
+pub const DEFAULT_PORT: u16 = 30000;
+
+/// Largest frame (header and body) accepted. Answers are at most a couple of KiB (a real
+/// 1002 answer with extra items is about 1 KiB); longer frames are skipped and reported
+/// rather than buffered.
+pub const MAX_FRAME_LEN: usize = 16 * 1024;
+
+/// The frame decoder used for every connection and for `decode`.
+pub type Decoder = FrameDecoder<MAX_FRAME_LEN>;
+
+/// Requests one connection may have written and not seen answered; beyond this the oldest
+/// is given up on. The commands wait for each answer before sending the next request, so
+/// this is ample.
+const MAX_OUTSTANDING: usize = 8;
+
+/// Message IDs of requests given up on that are remembered, so their late answers are
+/// skipped quietly; older ones, if they ever come, are reported as unsolicited.
+const MAX_ABANDONED: usize = 16;
+
+/// How long one read may block, so the caller's check (Ctrl-C, a moving deadline) runs
+/// often enough even when no deadline is near.
+const POLL: Duration = Duration::from_millis(100);
+
+/// An answer matched to its request.
+#[derive(Debug, Clone, Copy)]
+pub struct Answer {
+    /// The message ID the request and answer share.
+    pub message_id: u16,
+    /// The robot's `Time`.
+    pub time: Timestamp,
+    /// The answer.
+    pub response: Response,
+}
+
+impl Answer {
+    /// The answer as a JSON line.
+    pub fn json(&self) -> String {
+        render::json_line(&render::answer_json(
+            self.message_id,
+            &self.time,
+            &self.response,
+        ))
+    }
+}
+
+/// A wait limit: give up at `at`, reporting that `after` has passed.
+#[derive(Debug, Clone, Copy)]
+pub struct Deadline {
+    /// When to give up.
+    pub at: Instant,
+    /// The wait it stands for, for the error message.
+    pub after: Duration,
+}
+
+impl Deadline {
+    /// A deadline `after` from now (capped at a year, far beyond any timeout the
+    /// command line allows, so the clock arithmetic cannot overflow).
+    pub fn after(after: Duration) -> Self {
+        let now = Instant::now();
+        let year = Duration::from_secs(365 * 24 * 3600);
+        Self {
+            at: now
+                .checked_add(after)
+                .or_else(|| now.checked_add(year))
+                .unwrap_or(now),
+            after,
+        }
+    }
+}
+
+/// What a caller of [`Connection::wait`] wants after each read.
+#[derive(Debug)]
+pub enum Check {
+    /// Go on waiting, until the deadline if there is one.
+    Wait(Option<Deadline>),
+    /// Stop waiting with this error.
+    Abort(Error),
+}
+
+/// A connection to robot_server.
+#[derive(Debug)]
+pub struct Connection {
+    stream: TcpStream,
+    ids: MessageIds,
+    decoder: Box<Decoder>,
+    timeout: Duration,
+    frame_buf: Vec<u8>,
+    /// Requests written and not answered yet, with their Types: which request an answer
+    /// answers is decided here (the protocol core's rule, Type 0 included).
+    outstanding: Outstanding<MessageType, MAX_OUTSTANDING>,
+    /// Answers (or the errors they amount to) that came for an outstanding request while
+    /// another was being waited for, by the request's message ID.
+    early: Vec<(u16, Result<Answer, Error>)>,
+    /// Message IDs of requests given up on (not outstanding): their late answers are
+    /// expected, so they are skipped without a warning.
+    abandoned: Vec<u16>,
+}
+
+/// Resolves `HOST:PORT` (or `HOST`, meaning port 30000).
+pub fn resolve(robot: &str) -> Result<Vec<SocketAddr>, Error> {
+    let resolved = match robot.to_socket_addrs() {
+        Ok(addrs) => Ok(addrs),
+        // "HOST" alone (no port): try the protocol's port. A bare IPv6 address has colons
+        // and never gets here with a port missing, so it must be written [addr]:port.
+        Err(_) if !robot.contains(':') => (robot, DEFAULT_PORT).to_socket_addrs(),
+        Err(e) => Err(e),
+    };
+    let addrs: Vec<SocketAddr> = resolved
+        .map_err(|source| Error::Resolve {
+            addr: robot.to_owned(),
+            source,
+        })?
+        .collect();
+    if addrs.is_empty() {
+        return Err(Error::Resolve {
+            addr: robot.to_owned(),
+            source: io::Error::new(io::ErrorKind::NotFound, "no address found"),
+        });
+    }
+    Ok(addrs)
+}
+
+/// Frame encoding fails either in the header or in the XML body.
+enum EncodeFailure {
+    Frame(EncodeError),
+    Body(WriteError),
+}
+
+impl From<EncodeError> for EncodeFailure {
+    fn from(e: EncodeError) -> Self {
+        Self::Frame(e)
+    }
+}
+
+/// The current local time, for the `Time` element of requests.
+pub fn local_time() -> Timestamp {
+    use chrono::{Datelike, Timelike};
+    let now = chrono::Local::now();
+    let narrow = |v: u32| u8::try_from(v).unwrap_or(0);
+    Timestamp {
+        year: u16::try_from(now.year().clamp(0, 9999)).unwrap_or(0),
+        month: narrow(now.month()),
+        day: narrow(now.day()),
+        hour: narrow(now.hour()),
+        minute: narrow(now.minute()),
+        // A leap second shows as 60 in chrono; the protocol's seconds stop at 59.
+        second: narrow(now.second().min(59)),
+    }
+}
+
+/// Encodes a whole frame (header and XML body) for a request.
+pub fn encode_request(request: &Request, message_id: u16, out: &mut Vec<u8>) -> Result<(), Error> {
+    out.clear();
+    out.resize(HEADER_LEN + MAX_REQUEST_LEN, 0);
+    let time = local_time();
+    let len = frame::encode_with(out, message_id, |body| {
+        request.encode(&time, body).map_err(EncodeFailure::Body)
+    })
+    .map_err(|e| {
+        let why = match e {
+            EncodeFailure::Frame(e) => format!("{e:?}"),
+            EncodeFailure::Body(WriteError::NotFinite { item }) => {
+                format!("{item} is not a finite number")
+            }
+            EncodeFailure::Body(e) => format!("{e:?}"),
+        };
+        Error::Usage(format!(
+            "cannot encode the Type {} request: {why}",
+            request.message_type().raw()
+        ))
+    })?;
+    out.truncate(len);
+    Ok(())
+}
+
+impl Connection {
+    /// Connects to the robot, trying each resolved address in turn.
+    ///
+    /// `timeout` is the default wait for answers ([`Connection::request`]).
+    pub fn connect(
+        robot: &str,
+        connect_timeout: Duration,
+        timeout: Duration,
+    ) -> Result<Self, Error> {
+        let mut last = None;
+        for addr in resolve(robot)? {
+            match TcpStream::connect_timeout(&addr, connect_timeout) {
+                Ok(stream) => {
+                    // Requests are small and answered one at a time: send each at once.
+                    let _ = stream.set_nodelay(true);
+                    return Ok(Self {
+                        stream,
+                        ids: MessageIds::new(),
+                        decoder: Box::default(),
+                        timeout,
+                        frame_buf: Vec::new(),
+                        outstanding: Outstanding::new(),
+                        early: Vec::new(),
+                        abandoned: Vec::new(),
+                    });
+                }
+                Err(e) => last = Some(e),
+            }
+        }
+        Err(Error::Connect {
+            addr: robot.to_owned(),
+            source: last.unwrap_or_else(|| io::Error::other("no address to connect to")),
+            timeout: connect_timeout,
+        })
+    }
+
+    /// Sends a request and waits up to the connection's timeout for its answer.
+    ///
+    /// A failed `ErrorCode` is still an answer (`Ok`); a Type 0 answer is an error.
+    pub fn request(&mut self, request: &Request) -> Result<Answer, Error> {
+        let message_id = self.send(request)?;
+        let deadline = Deadline::after(self.timeout);
+        self.wait(message_id, request.message_type(), |_| {
+            Check::Wait(Some(deadline))
+        })
+    }
+
+    /// Sends a request and waits for its answer like [`Connection::request`], but gives up
+    /// with `Ok(None)` as soon as `stop` returns true (checked at least every 100 ms). The
+    /// answer may still arrive later; it is then skipped quietly.
+    pub fn request_unless(
+        &mut self,
+        request: &Request,
+        stop: impl Fn() -> bool,
+    ) -> Result<Option<Answer>, Error> {
+        let message_id = self.send(request)?;
+        let deadline = Deadline::after(self.timeout);
+        let mut stopped = false;
+        let result = self.wait(message_id, request.message_type(), |_| {
+            if stop() {
+                stopped = true;
+                // Abort needs an error; it is replaced by `Ok(None)` below.
+                Check::Abort(Error::Interrupted(String::new()))
+            } else {
+                Check::Wait(Some(deadline))
+            }
+        });
+        match result {
+            // `wait` has given the request up: its late answer will be skipped quietly.
+            Err(_) if stopped => Ok(None),
+            other => other.map(Some),
+        }
+    }
+
+    /// Sends a request without waiting; returns its message ID.
+    pub fn send(&mut self, request: &Request) -> Result<u16, Error> {
+        let message_id = self.ids.next_id();
+        let mut buf = std::mem::take(&mut self.frame_buf);
+        let result = encode_request(request, message_id, &mut buf).and_then(|()| {
+            // A robot that stops reading must not block us forever either.
+            let _ = self.stream.set_write_timeout(Some(self.timeout));
+            self.stream.write_all(&buf).map_err(|source| {
+                let message_type = request.message_type().raw();
+                if is_disconnect(&source) {
+                    Error::Closed {
+                        message_type,
+                        source: Some(source),
+                    }
+                } else {
+                    Error::Io {
+                        context: format!("sending the Type {message_type} request"),
+                        source,
+                    }
+                }
+            })
+        });
+        self.frame_buf = buf;
+        result?;
+        // The counter wrapped onto an ID given up on long ago: its answer is this one's now.
+        self.abandoned.retain(|&id| id != message_id);
+        self.early.retain(|(id, _)| *id != message_id);
+        if let Some((oldest, _)) = self.outstanding.push(message_id, request.message_type()) {
+            // Too many outstanding: the oldest was given up on to make room.
+            self.abandon(oldest);
+        }
+        Ok(message_id)
+    }
+
+    /// Waits for the answer with `message_id` (from [`Connection::send`]) to a request of
+    /// Type `message_type`.
+    ///
+    /// `check` runs after every read (at least every 100 ms) with the time waited so far,
+    /// and says how long to go on. Answers to other outstanding requests are kept for their
+    /// own `wait`; other frames and stream errors (garbage, bad headers, oversize frames)
+    /// are reported on stderr and skipped. If the wait ends without the answer (the
+    /// deadline, [`Check::Abort`], a read error), the request is given up on: its late
+    /// answer is then skipped quietly.
+    pub fn wait(
+        &mut self,
+        message_id: u16,
+        message_type: MessageType,
+        mut check: impl FnMut(Duration) -> Check,
+    ) -> Result<Answer, Error> {
+        let started = Instant::now();
+        let ty = message_type.raw();
+        if let Some(at) = self.early.iter().position(|(id, _)| *id == message_id) {
+            return self.early.remove(at).1;
+        }
+        if !self.outstanding.contains(message_id) {
+            return Err(Error::Io {
+                context: format!("waiting for the answer to Type {ty}"),
+                source: io::Error::other(format!(
+                    "no request with message ID {message_id} is outstanding"
+                )),
+            });
+        }
+        let result = loop {
+            if let Some(answer) = self.next_answer(message_id, message_type) {
+                return answer;
+            }
+            let deadline = match check(started.elapsed()) {
+                Check::Abort(e) => break Err(e),
+                Check::Wait(deadline) => deadline,
+            };
+            let mut slice = POLL;
+            if let Some(deadline) = deadline {
+                let left = deadline.at.saturating_duration_since(Instant::now());
+                if left.is_zero() {
+                    break Err(Error::Timeout {
+                        waited: deadline.after,
+                        message_type: ty,
+                    });
+                }
+                slice = slice.min(left);
+            }
+            // A zero read timeout is an error; a millisecond is the shortest useful one.
+            let _ = self
+                .stream
+                .set_read_timeout(Some(slice.max(Duration::from_millis(1))));
+            let spare = self.decoder.spare();
+            if spare.is_empty() {
+                // Cannot happen (the decoder skips frames that would not fit), but an
+                // empty read buffer would look like a closed connection.
+                self.decoder.clear();
+                continue;
+            }
+            match self.stream.read(spare) {
+                Ok(0) => {
+                    break Err(Error::Closed {
+                        message_type: ty,
+                        source: None,
+                    });
+                }
+                Ok(n) => self.decoder.commit(n),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::WouldBlock
+                            | io::ErrorKind::TimedOut
+                            | io::ErrorKind::Interrupted
+                    ) => {}
+                Err(e) if is_disconnect(&e) => {
+                    break Err(Error::Closed {
+                        message_type: ty,
+                        source: Some(e),
+                    });
+                }
+                Err(source) => {
+                    break Err(Error::Io {
+                        context: format!("reading the answer to Type {ty}"),
+                        source,
+                    });
+                }
+            }
+        };
+        self.give_up(message_id);
+        result
+    }
+
+    /// Gives up on an outstanding request: it is no longer matched, and its late answer,
+    /// if one comes, is skipped without a warning.
+    fn give_up(&mut self, message_id: u16) {
+        if self.outstanding.remove(message_id).is_some() {
+            self.abandon(message_id);
+        }
+    }
+
+    /// Remembers a request given up on (no longer outstanding), so its late answer is
+    /// skipped quietly.
+    fn abandon(&mut self, message_id: u16) {
+        if self.abandoned.len() >= MAX_ABANDONED {
+            self.abandoned.remove(0);
+        }
+        self.abandoned.push(message_id);
+    }
+
+    /// Takes frames out of the decoder until the answer to the request with `message_id`
+    /// turns up (`Some`: the answer, or the error it amounts to) or more bytes are needed.
+    ///
+    /// Which request a frame answers is decided by [`Outstanding::answer`]: the request
+    /// with the frame's message ID, or, for a Type 0 answer whose ID matches none, the
+    /// oldest outstanding request. Answers to other outstanding requests are kept in
+    /// `early`.
+    fn next_answer(
+        &mut self,
+        message_id: u16,
+        message_type: MessageType,
+    ) -> Option<Result<Answer, Error>> {
+        while let Some(item) = self.decoder.decode() {
+            let (answered, result) = match item {
+                Ok(frame) => {
+                    let id = frame.message_id;
+                    let decoded = Response::decode(frame.asdu);
+                    match self.match_frame(id, decoded, (message_id, message_type)) {
+                        Some(matched) => matched,
+                        None => continue,
+                    }
+                }
+                Err(FrameError::TooLong {
+                    message_id: id,
+                    asdu_len,
+                }) if self.outstanding.contains(id) => {
+                    let ty = self.outstanding.remove(id).map_or(0, MessageType::raw);
+                    (
+                        id,
+                        Err(Error::BadAnswer {
+                            message_type: ty,
+                            message_id: id,
+                            detail: format!(
+                                "{asdu_len}-byte body, longer than the {}-byte limit; skipped",
+                                MAX_FRAME_LEN - HEADER_LEN
+                            ),
+                        }),
+                    )
+                }
+                Err(e) => {
+                    warn(&stream_error_text(&e));
+                    continue;
+                }
+            };
+            if answered == message_id {
+                return Some(result);
+            }
+            self.early.push((answered, result));
+        }
+        None
+    }
+
+    /// Matches one decoded (or undecodable) frame with message ID `id` to the outstanding
+    /// request it answers, taking that request out: `(its message ID, its result)`.
+    /// `None`: the frame answers no outstanding request and was skipped (quietly for the
+    /// late answer to a request given up on). `awaited` (the message ID and Type of the
+    /// request being waited for) is only for the warnings.
+    fn match_frame(
+        &mut self,
+        id: u16,
+        decoded: Result<Decoded<Response>, DecodeError>,
+        (awaited, awaited_type): (u16, MessageType),
+    ) -> Option<(u16, Result<Answer, Error>)> {
+        let request_error = match &decoded {
+            Ok(d) => match d.message {
+                Response::RequestError(e) => Some(e.code),
+                _ => None,
+            },
+            Err(_) => None,
+        };
+        // The late answer to a request given up on: expected, not news. An outstanding
+        // request with the same ID (the counter wrapped) comes first.
+        if !self.outstanding.contains(id)
+            && let Some(at) = self.abandoned.iter().position(|&a| a == id)
+        {
+            self.abandoned.remove(at);
+            return None;
+        }
+        let waiting_for = format!(
+            "waiting for the answer to Type {}, message ID {awaited}",
+            awaited_type.raw()
+        );
+        let d = match decoded {
+            Ok(d) => d,
+            Err(e) => {
+                if let Some(ty) = self.outstanding.remove(id) {
+                    return Some((
+                        id,
+                        Err(Error::BadAnswer {
+                            message_type: ty.raw(),
+                            message_id: id,
+                            detail: e.to_string(),
+                        }),
+                    ));
+                }
+                warn(&format!(
+                    "ignored an undecodable frame with message ID {id} ({waiting_for}): {e}"
+                ));
+                return None;
+            }
+        };
+        let got = d.message.message_type();
+        let Some((request_id, ty)) = self.outstanding.answer(id, request_error.is_some()) else {
+            warn(&format!(
+                "ignored an unsolicited Type {} frame with message ID {id} ({waiting_for})",
+                got.raw()
+            ));
+            return None;
+        };
+        let result = if let Some(code) = request_error {
+            // Type 0 is the robot saying it could not read a request. It cannot always
+            // know the request's message ID (ErrorCode 1: header missing); one whose ID
+            // matches no outstanding request answers the oldest.
+            if id != request_id {
+                warn(&format!(
+                    "the Type 0 answer carries message ID {id}, not the request's {request_id}"
+                ));
+            }
+            Err(Error::TypeZero {
+                code,
+                message_type: ty.raw(),
+            })
+        } else if got != ty {
+            Err(Error::BadAnswer {
+                message_type: ty.raw(),
+                message_id: id,
+                detail: format!("the answer has Type {}", got.raw()),
+            })
+        } else {
+            Ok(Answer {
+                message_id: id,
+                time: d.time,
+                response: d.message,
+            })
+        };
+        Some((request_id, result))
+    }
+}
+
+/// Whether an I/O error means the peer went away.
+fn is_disconnect(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::ConnectionReset
+            | io::ErrorKind::ConnectionAborted
+            | io::ErrorKind::BrokenPipe
+            | io::ErrorKind::UnexpectedEof
+    )
+}
+
+/// A stream error of the frame decoder, as text.
+pub fn stream_error_text(e: &FrameError) -> String {
+    match e {
+        FrameError::Garbage { skipped } => format!(
+            "skipped {skipped} byte{} of garbage before a sync sequence",
+            if *skipped == 1 { "" } else { "s" }
+        ),
+        FrameError::BadReserved { message_id } => {
+            format!("skipped a frame header with non-zero reserved bytes (message ID {message_id})")
+        }
+        FrameError::TooLong {
+            message_id,
+            asdu_len,
+        } => format!(
+            "skipped an oversize frame (message ID {message_id}, {asdu_len}-byte body, limit {})",
+            MAX_FRAME_LEN - HEADER_LEN
+        ),
+        other => format!("stream error: {other:?}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::net::TcpListener;
+    use std::thread;
+    use x30_panel::proto::codes::RequestErrorCode;
+    use x30_panel::proto::message::{Battery, RequestError, RobotStatus};
+
+    /// Bound on every wait in these tests.
+    const LIMIT: Duration = Duration::from_secs(5);
+
+    /// A one-connection fake robot on loopback: reads `requests` request frames, then
+    /// writes `reply(their message IDs)` and keeps the connection open until the client
+    /// leaves.
+    fn fake_robot(
+        requests: usize,
+        reply: impl FnOnce(&[u16]) -> Vec<u8> + Send + 'static,
+    ) -> String {
+        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+        let addr = listener.local_addr().expect("addr").to_string();
+        thread::spawn(move || {
+            let Ok((mut stream, _)) = listener.accept() else {
+                return;
+            };
+            let _ = stream.set_read_timeout(Some(LIMIT));
+            let mut ids = Vec::new();
+            for _ in 0..requests {
+                let mut header = [0u8; HEADER_LEN];
+                if stream.read_exact(&mut header).is_err() {
+                    return;
+                }
+                let len = usize::from(u16::from_le_bytes([header[4], header[5]]));
+                let mut body = vec![0; len];
+                if stream.read_exact(&mut body).is_err() {
+                    return;
+                }
+                ids.push(u16::from_le_bytes([header[6], header[7]]));
+            }
+            let _ = stream.write_all(&reply(&ids));
+            let _ = stream.read(&mut [0u8; 1]);
+        });
+        addr
+    }
+
+    fn answer_frame(id: u16, response: &Response) -> Vec<u8> {
+        let mut body = vec![0; 4096];
+        let n = response
+            .encode(&Timestamp::DOCUMENT_EPOCH, &mut body)
+            .expect("encode");
+        let mut out = vec![0; HEADER_LEN + n];
+        let n = frame::encode(&mut out, id, &body[..n]).expect("frame");
+        out.truncate(n);
+        out
+    }
+
+    fn type_0(id: u16) -> Vec<u8> {
+        answer_frame(
+            id,
+            &Response::RequestError(RequestError {
+                code: RequestErrorCode::ParseFailed,
+            }),
+        )
+    }
+
+    fn status(id: u16) -> Vec<u8> {
+        answer_frame(id, &Response::Status(RobotStatus::UNAVAILABLE))
+    }
+
+    fn battery(id: u16) -> Vec<u8> {
+        answer_frame(
+            id,
+            &Response::Battery(Battery {
+                voltage: 55,
+                current: 120,
+                remaining_capacity: 1500,
+                nominal_capacity: 2004,
+                cycles: 3,
+                protected_state: x30_panel::proto::codes::ProtectedState::Normal,
+                battery_level: 42,
+                battery_temperature: None,
+            }),
+        )
+    }
+
+    fn connect(addr: &str) -> Connection {
+        Connection::connect(addr, LIMIT, LIMIT).expect("connect")
+    }
+
+    fn wait(conn: &mut Connection, id: u16, ty: MessageType) -> Result<Answer, Error> {
+        let deadline = Deadline::after(LIMIT);
+        conn.wait(id, ty, |_| Check::Wait(Some(deadline)))
+    }
+
+    /// Status then Battery outstanding; the robot answers with `reply(status ID, battery ID)`.
+    fn two_outstanding(
+        reply: impl FnOnce(u16, u16) -> Vec<u8> + Send + 'static,
+    ) -> (Result<Answer, Error>, Result<Answer, Error>) {
+        let addr = fake_robot(2, move |ids| reply(ids[0], ids[1]));
+        let mut conn = connect(&addr);
+        let first = conn.send(&Request::Status).expect("send");
+        let second = conn.send(&Request::Battery).expect("send");
+        let first = wait(&mut conn, first, MessageType::Status);
+        let second = wait(&mut conn, second, MessageType::Battery);
+        (first, second)
+    }
+
+    fn is_type_0_to(result: &Result<Answer, Error>, ty: MessageType) -> bool {
+        matches!(
+            result,
+            Err(Error::TypeZero { code: RequestErrorCode::ParseFailed, message_type })
+                if *message_type == ty.raw()
+        )
+    }
+
+    #[test]
+    fn answers_to_two_outstanding_requests_are_matched_in_any_order() {
+        let (first, second) = two_outstanding(|a, b| [battery(b), status(a)].concat());
+        assert!(
+            matches!(
+                first,
+                Ok(Answer {
+                    response: Response::Status(_),
+                    ..
+                })
+            ),
+            "{first:?}"
+        );
+        assert!(
+            matches!(second, Ok(Answer { response: Response::Battery(b), .. }) if b.battery_level == 42),
+            "{second:?}"
+        );
+    }
+
+    #[test]
+    fn type_0_with_the_second_requests_id_answers_the_second_not_the_first() {
+        let (first, second) = two_outstanding(|a, b| [type_0(b), status(a)].concat());
+        assert!(
+            matches!(
+                first,
+                Ok(Answer {
+                    response: Response::Status(_),
+                    ..
+                })
+            ),
+            "{first:?}"
+        );
+        assert!(is_type_0_to(&second, MessageType::Battery), "{second:?}");
+    }
+
+    #[test]
+    fn type_0_with_an_unknown_id_answers_the_oldest_outstanding_request() {
+        let (first, second) = two_outstanding(|a, b| {
+            [type_0(a.wrapping_add(b).wrapping_add(100)), battery(b)].concat()
+        });
+        assert!(is_type_0_to(&first, MessageType::Status), "{first:?}");
+        assert!(
+            matches!(
+                second,
+                Ok(Answer {
+                    response: Response::Battery(_),
+                    ..
+                })
+            ),
+            "{second:?}"
+        );
+    }
+
+    #[test]
+    fn late_type_0_to_a_request_given_up_on_is_skipped() {
+        let addr = fake_robot(2, |ids| [type_0(ids[0]), battery(ids[1])].concat());
+        let mut conn = connect(&addr);
+        let given_up = conn.send(&Request::Status).expect("send");
+        let stopped = conn.wait(given_up, MessageType::Status, |_| {
+            Check::Abort(Error::Interrupted(String::new()))
+        });
+        assert!(matches!(stopped, Err(Error::Interrupted(_))), "{stopped:?}");
+        let id = conn.send(&Request::Battery).expect("send");
+        let answer = wait(&mut conn, id, MessageType::Battery);
+        assert!(
+            matches!(answer, Ok(Answer { response: Response::Battery(_), message_id, .. }) if message_id == id),
+            "{answer:?}"
+        );
+    }
+
+    #[test]
+    fn waiting_for_a_request_never_sent_is_an_error_not_a_stall() {
+        let addr = fake_robot(0, |_| Vec::new());
+        let mut conn = connect(&addr);
+        let result = wait(&mut conn, 7, MessageType::Status);
+        assert!(
+            matches!(&result, Err(Error::Io { source, .. }) if source.to_string().contains("no request with message ID 7")),
+            "{result:?}"
+        );
+    }
+}
