@@ -45,6 +45,9 @@ pub const BUTTON_QUEUE: usize = 16;
 pub const REQUEST_TIMEOUT: Duration = Duration::from_millis(1500);
 /// Longest sleep of a loop without an event: keeps the progress counter moving.
 pub const IDLE: Duration = Duration::from_millis(500);
+/// Longest wait between connection attempts while a stop waits to go out: the stop path
+/// wins over the backoff's patience with a robot that keeps dropping connections.
+pub const STOP_RETRY: Duration = Duration::from_millis(250);
 /// How long a cancelled task's 1003 answer may take before its connection is closed.
 pub const CANCEL_GRACE: Duration = Duration::from_secs(2);
 /// Longest time between two LED updates, so that a network change shows without an event.
@@ -186,6 +189,16 @@ impl App<'_> {
         f(&mut self.panel.borrow_mut())
     }
 
+    /// `delay` before the next connection attempt, at most [`STOP_RETRY`] while a stop waits
+    /// to go out.
+    fn retry_delay(&self, delay: Duration) -> Duration {
+        if self.panel(|p| p.control().stop_pending()) {
+            delay.min(STOP_RETRY)
+        } else {
+            delay
+        }
+    }
+
     /// Reports a connection's state to the panel, and wakes the LEDs if it changed.
     fn connection(&self, role: ConnectionRole, state: ConnectionState) {
         if self.panel(|p| p.connection(role, state, Instant::now())) {
@@ -235,13 +248,16 @@ impl App<'_> {
             let health = conn.health(now);
             if health == Health::Silent {
                 warn!("the robot stopped answering commands: reconnecting");
-                retry_at = Instant::now() + conn.give_up().await;
+                // A robot that reads but does not answer may still act on a stop: write
+                // what is due before giving the connection up (motion is held back).
+                self.send_due(conn, health).await;
+                retry_at = Instant::now() + self.retry_delay(conn.give_up().await);
                 self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
             }
             self.connection(ConnectionRole::Commands, state_of(health));
             if !self.send_due(conn, health).await {
-                retry_at = Instant::now() + conn.reconnect_delay();
+                retry_at = Instant::now() + self.retry_delay(conn.reconnect_delay());
                 self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
             }
@@ -266,7 +282,7 @@ impl App<'_> {
                 }
                 Either3::First(Err(e)) => {
                     warn!("command connection lost: {:?}", e);
-                    retry_at = Instant::now() + conn.reconnect_delay();
+                    retry_at = Instant::now() + self.retry_delay(conn.reconnect_delay());
                     self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 }
                 Either3::Second(()) | Either3::Third(()) => {}
@@ -302,6 +318,10 @@ impl App<'_> {
         if conn.is_connected() {
             return true;
         }
+        // A stop pressed during a long backoff shortens the wait.
+        if self.panel(|p| p.control().stop_pending()) {
+            *retry_at = (*retry_at).min(Instant::now() + STOP_RETRY);
+        }
         if Instant::now() >= *retry_at {
             self.connection(role, ConnectionState::Connecting);
             conn.set_clock(self.clock.get());
@@ -310,7 +330,7 @@ impl App<'_> {
                     self.connection(role, ConnectionState::Open);
                     return true;
                 }
-                Err(retry_in) => *retry_at = Instant::now() + retry_in,
+                Err(retry_in) => *retry_at = Instant::now() + self.retry_delay(retry_in),
             }
         }
         Timer::at((*retry_at).min(Instant::now() + IDLE)).await;

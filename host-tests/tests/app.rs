@@ -700,13 +700,14 @@ impl x30_panel::client::Transport for Refused {
     async fn close(&mut self) {}
 }
 
-#[tokio::test(flavor = "current_thread")]
-async fn reconnection_waits_out_the_backoff_even_while_buttons_are_pressed() {
+/// Connection attempts made in 1.2 s to a robot that refuses every connection, with a
+/// backoff of `min_ms..max_ms`, while `button` is pressed and released every 20 ms (or
+/// pressed once and held, for the e-stop).
+async fn attempts_while_pressing(button: Button, min_ms: u64, max_ms: u64) -> u32 {
     let attempts = std::rc::Rc::new(std::cell::Cell::new(0));
     let config = Config::default();
     let shared = Shared::new();
-    // Attempts at 0, 100, 300 and 700 ms, then every 800 ms: 5 in 1.2 s.
-    let backoff = Backoff::new(Duration::from_millis(100), Duration::from_millis(800));
+    let backoff = Backoff::new(Duration::from_millis(min_ms), Duration::from_millis(max_ms));
     let refused = |attempts| Connection::new(Refused { attempts }, backoff);
     let mut links = Connections {
         commands: refused(attempts.clone()),
@@ -716,17 +717,35 @@ async fn reconnection_waits_out_the_backoff_even_while_buttons_are_pressed() {
     tokio::select! {
         _ = app::run(&config, &mut links, &shared) => unreachable!(),
         _ = async {
-            // A press every 20 ms wakes the control loop 60 times.
             for i in 0..60 {
-                press(&shared, Button::Light, i % 2 == 0).await;
+                if button != Button::Estop || i == 0 {
+                    press(&shared, button, i % 2 == 0 || button == Button::Estop).await;
+                }
                 sleep(20).await;
             }
         } => {}
     }
-    let made = attempts.get();
+    attempts.get()
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn reconnection_waits_out_the_backoff_even_while_buttons_are_pressed() {
+    // Attempts at 0, 100, 300 and 700 ms, then every 800 ms: 5 in 1.2 s.
+    let made = attempts_while_pressing(Button::Light, 100, 800).await;
     assert!(
         (3..=6).contains(&made),
         "{made} connection attempts in 1.2 s with a 100..800 ms backoff"
+    );
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_pending_estop_retries_the_connection_at_least_every_250_ms() {
+    // The backoff alone would try at 0 and 2 s: one attempt in 1.2 s. With the e-stop
+    // waiting to go out, the panel tries every 250 ms instead.
+    let made = attempts_while_pressing(Button::Estop, 2000, 10_000).await;
+    assert!(
+        (3..=7).contains(&made),
+        "{made} connection attempts in 1.2 s with an e-stop waiting"
     );
 }
 

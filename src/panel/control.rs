@@ -498,6 +498,11 @@ impl Control {
         self.estop.held || self.estop.latched
     }
 
+    /// Whether a stop waits to go out: an unconfirmed e-stop, zero velocity or a cancel.
+    pub fn stop_pending(&self) -> bool {
+        self.estop.unconfirmed() || self.zero_velocity || self.cancel.is_some()
+    }
+
     /// Whether an e-stop is latched and not yet confirmed by the robot.
     pub fn estop_unconfirmed(&self) -> bool {
         self.estop.unconfirmed()
