@@ -5,6 +5,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/../tools/codec-size"
 export RUSTFLAGS="-C link-arg=-e_start -C link-arg=--gc-sections"
+# The bare binary has no memory layout, which flip-link (the firmware's linker) needs: link
+# it with the target's own linker instead.
+export CARGO_TARGET_THUMBV7EM_NONE_EABIHF_LINKER=rust-lld
 target=thumbv7em-none-eabihf
 size_of() {
     cargo build --release --quiet --target "$target" --target-dir target/$1 $2
