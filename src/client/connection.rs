@@ -257,12 +257,18 @@ impl<T: Transport> Connection<T> {
     /// Gives up on the oldest request if it has waited `limit` or longer at `now`, and
     /// returns it: its answer, if it comes, will be unsolicited.
     pub fn expire(&mut self, now: Instant, limit: Duration) -> Option<(u16, Sent)> {
-        let (_, oldest) = self.outstanding.oldest()?;
+        let &(id, oldest) = self.outstanding.oldest()?;
         if now.saturating_duration_since(oldest.at) < limit {
             return None;
         }
+        self.give_up_on(id).map(|sent| (id, sent))
+    }
+
+    /// Gives up on request `id`: its answer, if it comes, will be unsolicited, and it counts
+    /// towards [`SILENT_TIMEOUTS`].
+    fn give_up_on(&mut self, id: u16) -> Option<Sent> {
         self.timeouts_in_a_row = self.timeouts_in_a_row.saturating_add(1);
-        self.outstanding.pop_oldest()
+        self.outstanding.remove(id)
     }
 
     /// When the oldest outstanding request will have waited `limit`.
@@ -290,8 +296,7 @@ impl<T: Transport> Connection<T> {
             Some(limit) => match with_timeout(limit, self.answer_to(id)).await {
                 Ok(answer) => answer,
                 Err(_) => {
-                    self.outstanding.remove(id);
-                    self.timeouts_in_a_row = self.timeouts_in_a_row.saturating_add(1);
+                    self.give_up_on(id);
                     Err(ClientError::Timeout)
                 }
             },

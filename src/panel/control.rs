@@ -422,11 +422,10 @@ impl Control {
     /// The ordered navigation task, for the navigation connection to send; `None` without
     /// one, or when its press went stale (then dropped and shown as failed).
     pub fn take_task(&mut self, now: Instant) -> Option<TaskOrder> {
-        let Task::Ordered { id, at } = self.task else {
+        let Task::Ordered { id, .. } = self.task else {
             return None;
         };
-        if !self.fresh(at, now, "dock") {
-            self.task = Task::Idle;
+        if !self.task_wanted(id, now) {
             return None;
         }
         let point = self.dock?;

@@ -117,7 +117,7 @@ impl Panel {
     pub fn button(&mut self, event: ButtonEvent) {
         let gait = self.view.status(event.at).map(|s| s.gait_state);
         self.control.button(event, gait);
-        self.monitor.navigation(self.control.navigating(), event.at);
+        self.follow_navigation(event.at);
     }
 
     /// The board's network came up or went down.
@@ -151,7 +151,7 @@ impl Panel {
     pub fn next_command(&mut self, now: Instant, health: Health) -> Option<Request> {
         let request = self.control.next_command(now, health);
         // A stop or motion press may have ended the navigation task.
-        self.monitor.navigation(self.control.navigating(), now);
+        self.follow_navigation(now);
         request
     }
 
@@ -186,21 +186,21 @@ impl Panel {
     pub fn take_task(&mut self, now: Instant) -> Option<TaskOrder> {
         let order = self.control.take_task(now);
         // A stale order was dropped: its 1007 polls end with it.
-        self.monitor.navigation(self.control.navigating(), now);
+        self.follow_navigation(now);
         order
     }
 
     /// Whether order `id` may still go out (see [`Control::task_wanted`]).
     pub fn task_wanted(&mut self, id: u32, now: Instant) -> bool {
         let wanted = self.control.task_wanted(id, now);
-        self.monitor.navigation(self.control.navigating(), now);
+        self.follow_navigation(now);
         wanted
     }
 
     /// Order `id`'s 1003 went out at `now`.
     pub fn task_started(&mut self, id: u32, now: Instant) {
         self.control.task_started(id, now);
-        self.monitor.navigation(self.control.navigating(), now);
+        self.follow_navigation(now);
     }
 
     /// Order `id` ended: its answer, or why there is none.
@@ -222,7 +222,7 @@ impl Panel {
             }
         };
         self.control.task_ended(id, outcome);
-        self.monitor.navigation(self.control.navigating(), now);
+        self.follow_navigation(now);
     }
 
     /// The LEDs at `now`.
@@ -272,6 +272,12 @@ impl Panel {
         } else {
             LinkState::Connected
         }
+    }
+
+    /// Keeps the 1007 polls in step with the navigation task, which presses and answers
+    /// start and end.
+    fn follow_navigation(&mut self, now: Instant) {
+        self.monitor.navigation(self.control.navigating(), now);
     }
 
     /// What the LEDs depend on.
