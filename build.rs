@@ -1,4 +1,9 @@
-//! Build script: linker setup for the firmware binary.
+//! Build script: checks the build-time settings, and sets up the linker for the firmware.
+//!
+//! Every `X30_*` variable set for the build is checked with the firmware's own parser (the
+//! key table and parsers of `src/settings/text.rs`, included below): an invalid value fails
+//! the build, naming the variable and what it allows, rather than leaving the board to fall
+//! back to a default nobody sees.
 //!
 //! Every board keeps its memory layout in its own folder under `src/board/`, none at the
 //! package root: the linker looks for `memory.x` in its working directory (the package root)
@@ -14,6 +19,15 @@
 use std::env;
 use std::fs;
 use std::path::{Path, PathBuf};
+
+// The codec's number parser and the settings' text, as the firmware compiles them: plain
+// `core` Rust, so they build here too. Only part of each is used.
+#[allow(dead_code)]
+#[path = "src/proto/xml/number.rs"]
+mod number;
+#[allow(dead_code)]
+#[path = "src/settings/text.rs"]
+mod text;
 
 /// Link-time description of one board.
 struct Board {
@@ -47,6 +61,7 @@ const BOARDS: &[Board] = &[
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
+    check_settings();
 
     // Cargo sets CARGO_CFG_TARGET_OS to the target being built, unlike `cfg!` in a build
     // script, which describes the machine running it.
@@ -110,4 +125,45 @@ fn copy_script(manifest_dir: &Path, from: &str, out_dir: &Path, to: &str) {
 /// Name of the environment variable through which Cargo announces an enabled feature.
 fn feature_env(feature: &str) -> String {
     format!("CARGO_FEATURE_{}", feature.to_uppercase().replace('-', "_"))
+}
+
+/// Fails the build on an invalid `X30_*` variable, naming it and what it allows.
+fn check_settings() {
+    println!("cargo:rerun-if-changed=src/settings/text.rs");
+    println!("cargo:rerun-if-changed=src/proto/xml/number.rs");
+    let value = |key: text::Key| {
+        println!("cargo:rerun-if-env-changed={}", key.variable());
+        env::var(key.variable()).ok()
+    };
+    let mut valid = true;
+    let mut values = Vec::new();
+    for &key in text::Key::ALL {
+        let value = value(key);
+        if let Some(text) = &value
+            && !key.accepts(text.trim())
+        {
+            println!(
+                "cargo::error={}={:?} is not valid: expected {}",
+                key.variable(),
+                text,
+                key.allowed()
+            );
+            valid = false;
+        }
+        values.push((key, value));
+    }
+    let given = |wanted: text::Key| {
+        values
+            .iter()
+            .find(|(key, _)| *key == wanted)
+            .and_then(|(_, value)| value.as_deref().map(str::trim))
+    };
+    // The one rule between keys: without DHCP the board needs an address of its own.
+    let dhcp_off = given(text::Key::Dhcp).and_then(text::parse_switch) == Some(false);
+    let ip = given(text::Key::Ip).and_then(|ip| text::optional(ip, text::parse_cidr));
+    if valid && dhcp_off && ip.flatten().is_none() {
+        println!(
+            "cargo::error=X30_DHCP=0 needs X30_IP=a.b.c.d/len: the board would have no address"
+        );
+    }
 }

@@ -17,7 +17,10 @@
 //!   unless the task was withdrawn meanwhile, and holds that connection open until the
 //!   answer, because the robot stops a task whose client disconnects (ErrorStatus 41802);
 //! - the **LED** loop publishes the LED states on its own schedule, so they never freeze
-//!   while a request is slow.
+//!   while a request is slow, and with them a [`Snapshot`] of the panel for the console;
+//! - the **settings** loop takes in settings saved on the console
+//!   ([`Shared::apply_settings`]): new speeds, presets and poll periods at once, and a new
+//!   robot address by closing every connection, which reopen to the new address.
 //!
 //! The command loop counts its turns in [`Shared`]'s progress ([`Path::Commands`]); it turns
 //! at least every [`IDLE`] while it can make progress, so that a board's watchdog can tell
@@ -26,18 +29,23 @@
 use core::cell::{Cell, RefCell};
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-use embassy_futures::join::join5;
+use embassy_futures::join::{join, join5};
 use embassy_futures::select::{Either, Either3, select, select3};
+use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::blocking_mutex::raw::{CriticalSectionRawMutex, NoopRawMutex};
 use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Instant, Timer, with_timeout};
 
 use crate::client::{ClientError, Connection, Health, RobotClock, Transport};
-use crate::config::Config;
-use crate::panel::{ButtonEvent, ConnectionRole, ConnectionState, Indicators, NetworkState, Panel};
+use crate::config::{Cidr, Config, RobotAddress};
+use crate::panel::indicators::{Fault, LinkState, fault};
+use crate::panel::monitor::Stamped;
+use crate::panel::{
+    Busy, ButtonEvent, ConnectionRole, ConnectionState, Indicators, NetworkState, Panel,
+};
 use crate::proto::codes::MessageType;
-use crate::proto::message::{NavResult, Request, Response};
+use crate::proto::message::{Battery, NavResult, Request, Response, RobotStatus};
 
 /// How many button events may wait for the application.
 pub const BUTTON_QUEUE: usize = 16;
@@ -63,6 +71,29 @@ pub enum Path {
     Commands,
 }
 
+/// What the console sees of the panel: a copy the application publishes as things change.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Snapshot {
+    /// How far the connection to the robot is.
+    pub link: LinkState,
+    /// The robot the panel talks to.
+    pub robot: RobotAddress,
+    /// The latest status (1002), however old, with its arrival time.
+    pub status: Option<Stamped<RobotStatus>>,
+    /// The latest battery answer (2001), however old.
+    pub battery: Option<Stamped<Battery>>,
+    /// The fault the robot reports now, if any.
+    pub fault: Option<Fault>,
+    /// Whether the last command failed.
+    pub command_failed: bool,
+    /// Why settings must not be saved now, if they must not.
+    pub busy: Option<Busy>,
+    /// The board's own address, if it has one.
+    pub board_address: Option<Cidr>,
+    /// When this was taken.
+    pub at: Instant,
+}
+
 /// What the board and the application exchange.
 pub struct Shared {
     /// Debounced button events, from the board's button task.
@@ -73,6 +104,14 @@ pub struct Shared {
     network: AtomicBool,
     /// Progress counters, one per [`Path`], growing (wrapping) as each path works.
     progress: [AtomicU32; 2],
+    /// Settings just saved, for the application to take in.
+    settings: Signal<CriticalSectionRawMutex, Config>,
+    /// Whether the saved settings could not be read (the defaults are in use).
+    settings_lost: AtomicBool,
+    /// The latest snapshot of the panel, once the application runs.
+    snapshot: Mutex<CriticalSectionRawMutex, Cell<Option<Snapshot>>>,
+    /// The board's own address, once it has one.
+    board_address: Mutex<CriticalSectionRawMutex, Cell<Option<Cidr>>>,
 }
 
 impl Shared {
@@ -83,7 +122,36 @@ impl Shared {
             indicators: Signal::new(),
             network: AtomicBool::new(false),
             progress: [AtomicU32::new(0), AtomicU32::new(0)],
+            settings: Signal::new(),
+            settings_lost: AtomicBool::new(false),
+            snapshot: Mutex::new(Cell::new(None)),
+            board_address: Mutex::new(Cell::new(None)),
         }
+    }
+
+    /// Puts saved settings in effect.
+    pub fn apply_settings(&self, config: Config) {
+        self.settings.signal(config);
+    }
+
+    /// Tells whether the saved settings could not be read, so the defaults are in use.
+    pub fn set_settings_lost(&self, lost: bool) {
+        self.settings_lost.store(lost, Ordering::Relaxed);
+    }
+
+    /// The latest snapshot of the panel; `None` before the application runs.
+    pub fn snapshot(&self) -> Option<Snapshot> {
+        self.snapshot.lock(Cell::get)
+    }
+
+    /// The board's own address, if it has one.
+    pub fn board_address(&self) -> Option<Cidr> {
+        self.board_address.lock(Cell::get)
+    }
+
+    /// Records the board's own address (`None`: it lost it).
+    pub fn set_board_address(&self, address: Option<Cidr>) {
+        self.board_address.lock(|cell| cell.set(address));
     }
 
     /// The board's network came up (link and address) or went down.
@@ -140,6 +208,10 @@ pub struct Connections<T: Transport> {
 pub async fn run<T: Transport>(config: &Config, links: &mut Connections<T>, shared: &Shared) -> ! {
     let app = App {
         panel: RefCell::new(Panel::new(config)),
+        robot: Cell::new(Target {
+            robot: config.robot,
+            moves: 0,
+        }),
         shared,
         clock: Cell::new(RobotClock::new()),
         wake_commands: Signal::new(),
@@ -154,21 +226,36 @@ pub async fn run<T: Transport>(config: &Config, links: &mut Connections<T>, shar
     } = links;
     // The button loop is polled first, so that an event and a due repeat that wake the task
     // together are seen in that order: a repeat never slips out after an e-stop press.
-    let (never, ..) = join5(
-        app.button_loop(),
-        app.command_loop(commands),
-        app.poll_loop(polls),
-        app.navigation_loop(navigation),
-        app.led_loop(),
+    let ((never, ..), _) = join(
+        join5(
+            app.button_loop(),
+            app.command_loop(commands),
+            app.poll_loop(polls),
+            app.navigation_loop(navigation),
+            app.led_loop(),
+        ),
+        app.settings_loop(),
     )
     .await;
     never
+}
+
+/// The robot the connections go to, and how often it changed: each connection loop
+/// compares the count with the one it last followed.
+#[derive(Debug, Clone, Copy)]
+struct Target {
+    /// The robot's address.
+    robot: RobotAddress,
+    /// How many times the settings moved the robot.
+    moves: u32,
 }
 
 /// What the loops share.
 struct App<'a> {
     /// The panel; borrowed only between awaits, never across one.
     panel: RefCell<Panel>,
+    /// Where the connections go.
+    robot: Cell<Target>,
     /// The board's side.
     shared: &'a Shared,
     /// The robot's clock as the poll connection learns it, for the others' `Time`.
@@ -199,6 +286,24 @@ impl App<'_> {
         }
     }
 
+    /// Closes `conn` if the robot moved since `followed` (the count of moves it follows),
+    /// so that it reopens to the new address; whether it did.
+    async fn follow_robot<T: Transport>(
+        &self,
+        conn: &mut Connection<T>,
+        role: ConnectionRole,
+        followed: &mut u32,
+    ) -> bool {
+        let target = self.robot.get();
+        if target.moves == *followed {
+            return false;
+        }
+        *followed = target.moves;
+        conn.retarget(target.robot).await;
+        self.connection(role, ConnectionState::Connecting);
+        true
+    }
+
     /// Reports a connection's state to the panel, and wakes the LEDs if it changed.
     fn connection(&self, role: ConnectionRole, state: ConnectionState) {
         if self.panel(|p| p.connection(role, state, Instant::now())) {
@@ -216,6 +321,8 @@ impl App<'_> {
                 if event.pressed { "pressed" } else { "released" }
             );
             self.panel(|p| p.button(event));
+            // At once: the console's save asks whether a button is held.
+            self.publish_snapshot(Instant::now());
             self.wake_commands.signal(());
             self.wake_tasks.signal(());
             self.wake_polls.signal(());
@@ -227,8 +334,15 @@ impl App<'_> {
     /// silence.
     async fn command_loop<T: Transport>(&self, conn: &mut Connection<T>) -> ! {
         let mut retry_at = Instant::now();
+        let mut followed = 0;
         loop {
             self.shared.beat(Path::Commands);
+            if self
+                .follow_robot(conn, ConnectionRole::Commands, &mut followed)
+                .await
+            {
+                retry_at = Instant::now();
+            }
             if !self
                 .ensure_connected(conn, ConnectionRole::Commands, &mut retry_at)
                 .await
@@ -340,7 +454,14 @@ impl App<'_> {
     /// The poll connection: one poll at a time, when due.
     async fn poll_loop<T: Transport>(&self, conn: &mut Connection<T>) -> ! {
         let mut retry_at = Instant::now();
+        let mut followed = 0;
         loop {
+            if self
+                .follow_robot(conn, ConnectionRole::Polls, &mut followed)
+                .await
+            {
+                retry_at = Instant::now();
+            }
             if !self
                 .ensure_connected(conn, ConnectionRole::Polls, &mut retry_at)
                 .await
@@ -383,7 +504,12 @@ impl App<'_> {
 
     /// The navigation connection: one task at a time, its connection held until the answer.
     async fn navigation_loop<T: Transport>(&self, conn: &mut Connection<T>) -> ! {
+        let mut followed = 0;
         loop {
+            // A task already running stays on its robot until it ends; the next goes to
+            // the new one.
+            self.follow_robot(conn, ConnectionRole::Navigation, &mut followed)
+                .await;
             let Some(order) = self.panel(|p| p.take_task(Instant::now())) else {
                 self.wake_tasks.wait().await;
                 // A stale order was dropped and shown.
@@ -471,14 +597,56 @@ impl App<'_> {
             let now = Instant::now();
             let (indicators, next) = self.panel(|p| {
                 p.network(self.shared.network());
+                p.settings_lost(self.shared.settings_lost.load(Ordering::Relaxed));
                 (p.indicators(now), p.indicators_deadline(now))
             });
+            self.publish_snapshot(now);
             if shown != Some(indicators) {
                 shown = Some(indicators);
                 self.shared.indicators.signal(indicators);
             }
             let deadline = next.map_or(now + LED_REFRESH, |at| at.min(now + LED_REFRESH));
             select(self.wake_leds.wait(), Timer::at(deadline)).await;
+        }
+    }
+
+    /// Publishes what the console sees of the panel at `now`.
+    fn publish_snapshot(&self, now: Instant) {
+        let snapshot = self.panel(|p| Snapshot {
+            link: p.link_state(),
+            robot: self.robot.get().robot,
+            status: p.view().last_status().copied(),
+            battery: p.view().last_battery().copied(),
+            fault: fault(p.view(), now),
+            command_failed: p.control().last_failed(),
+            busy: p.busy(),
+            board_address: self.shared.board_address(),
+            at: now,
+        });
+        self.shared.snapshot.lock(|cell| cell.set(Some(snapshot)));
+    }
+
+    /// Takes in settings saved on the console.
+    async fn settings_loop(&self) -> ! {
+        loop {
+            let config = self.shared.settings.wait().await;
+            self.panel(|p| p.reconfigure(&config));
+            let target = self.robot.get();
+            if config.robot != target.robot {
+                let [a, b, c, d] = config.robot.ip;
+                info!(
+                    "settings: the robot is now {}.{}.{}.{}:{}; reconnecting",
+                    a, b, c, d, config.robot.port
+                );
+                self.robot.set(Target {
+                    robot: config.robot,
+                    moves: target.moves.wrapping_add(1),
+                });
+            }
+            self.wake_commands.signal(());
+            self.wake_polls.signal(());
+            self.wake_tasks.signal(());
+            self.wake_leds.signal(());
         }
     }
 }

@@ -34,5 +34,7 @@ mod fmt;
 pub mod app;
 pub mod client;
 pub mod config;
+pub mod console;
 pub mod panel;
 pub mod proto;
+pub mod settings;

@@ -19,7 +19,7 @@
 mod board;
 
 use board::qemu_mps2_an386::lan9118::Lan9118;
-use board::qemu_mps2_an386::{MAC, robot_argument, semihosting};
+use board::qemu_mps2_an386::{MAC, arguments, semihosting};
 use embassy_executor::Spawner;
 use embassy_net::{Ipv4Address, Ipv4Cidr, Runner, StackResources};
 use embassy_time::{Duration, Instant, Timer, with_timeout};
@@ -138,7 +138,9 @@ fn command_line() -> Result<(), &'static str> {
     let mut buf = [0u8; 256];
     let line = semihosting::command_line(&mut buf).ok_or("no command line")?;
     semihosting::print_line(format_args!("  command line: {line}"));
-    robot_argument(line).ok_or("no robot address on the command line")?;
+    arguments(line)
+        .robot
+        .ok_or("no robot address on the command line")?;
     Ok(())
 }
 

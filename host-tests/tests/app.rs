@@ -2,6 +2,12 @@
 //! e-stop, outages, reconnection, navigation cancel, LEDs, and the simulator's faults.
 
 mod common;
+// The store's tests use the whole simulated chip; these only a blank one.
+#[allow(dead_code)]
+#[path = "common/sim_flash.rs"]
+mod sim_flash;
+#[path = "common/terminal.rs"]
+mod terminal;
 
 use common::TokioTransport;
 use embassy_time::{Duration, Instant};
@@ -14,6 +20,13 @@ use x30_panel::panel::{Button, ButtonEvent, Indicators, Led};
 use x30_panel::proto::codes::{GaitState, MotionGait, MotionState, PointInfo};
 use x30_panel::proto::message::{MotionCommand, NavPoint, Request};
 use x30_sim::{Config as SimConfig, Faults, LogEntry, Simulator};
+
+use sim_flash::{PAGE, SimFlash};
+use terminal::{Keyboard, Screen};
+use x30_panel::config::RobotAddress;
+use x30_panel::console;
+use x30_panel::settings::Settings;
+use x30_panel::settings::store::Store;
 
 fn simulator(time_scale: f64) -> Simulator {
     Simulator::start(SimConfig {
@@ -40,9 +53,10 @@ fn links(addr: std::net::SocketAddr) -> Connections<TokioTransport> {
 
 /// The test configuration: the defaults, with a charging point 1 m from the map origin.
 fn config() -> Config {
-    let mut config = Config::default();
-    config.dock = Some(NavPoint::new(1, 1, 1.0, 0.0, 0.0, 0.0, PointInfo::Charging));
-    config
+    Config {
+        dock: Some(NavPoint::new(1, 1, 1.0, 0.0, 0.0, 0.0, PointInfo::Charging)),
+        ..Config::default()
+    }
 }
 
 /// Puts the simulated robot 19 m from the test's charging point: a task to it runs for
@@ -698,6 +712,8 @@ impl x30_panel::client::Transport for Refused {
     }
 
     async fn close(&mut self) {}
+
+    fn set_robot(&mut self, _: x30_panel::config::RobotAddress) {}
 }
 
 /// Connection attempts made in 1.2 s to a robot that refuses every connection, with a
@@ -1028,4 +1044,127 @@ async fn gait_steps_on_from_the_robots_reported_gait() {
         })
         .expect("a gait command");
     assert_eq!(gait, MotionGait::PerceptionStairs);
+}
+
+/// The loopback address of `sim`, as a robot setting.
+fn robot_of(sim: &Simulator) -> RobotAddress {
+    RobotAddress {
+        ip: [127, 0, 0, 1],
+        port: sim.addr().port(),
+    }
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_saved_robot_address_moves_every_connection_at_once() {
+    let first = simulator(1.0);
+    let second = simulator(1.0);
+    with_app(&first, async |shared| {
+        wait_connected(&first).await;
+        let mut moved = config();
+        moved.robot = robot_of(&second);
+        shared.apply_settings(moved);
+        assert!(
+            wait_for_log(&second, 2000, |l| polls(l, 1002) > 0).await,
+            "the second robot is polled within 2 s"
+        );
+        click(shared, Button::Light).await;
+        assert!(
+            wait_for_type(&second, 2000, 0.0, 1101).await.is_some(),
+            "commands go to the second robot"
+        );
+        let heard = first.requests().len();
+        sleep(700).await;
+        assert_eq!(
+            first.requests().len(),
+            heard,
+            "the first robot hears nothing more"
+        );
+        assert!(
+            shared
+                .snapshot()
+                .is_some_and(|s| s.robot == robot_of(&second)),
+            "the console's status names the new robot"
+        );
+    })
+    .await;
+}
+
+/// Types each of `lines` on a console next to the application, waiting `gap_ms` after
+/// each; the screen.
+async fn console_session(shared: &Shared, flash: &SimFlash, lines: &[&str], gap_ms: u64) -> String {
+    let mut store = Store::new(flash.clone(), 0..2 * PAGE as u32);
+    let mut settings = Settings::new(config());
+    let (keyboard, keys) = Keyboard::new();
+    let screen = Screen::default();
+    let console = console::run(
+        keyboard,
+        screen.clone(),
+        &mut store,
+        &mut settings,
+        None,
+        shared,
+    );
+    let typing = async {
+        for line in lines {
+            keys.send(format!("{line}\r").into_bytes()).unwrap();
+            sleep(gap_ms).await;
+        }
+    };
+    tokio::select! {
+        _ = console => panic!("the console asked for a reboot"),
+        () = typing => screen.text(),
+    }
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn settings_are_not_saved_while_a_motion_button_is_held_and_apply_once_saved() {
+    let sim = simulator(1.0);
+    with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        let flash = SimFlash::new(2);
+        press(shared, Button::Forward, true).await;
+        let held = console_session(shared, &flash, &["set speed-forward 0.3", "save"], 100).await;
+        assert!(
+            held.contains("not saved: a motion button is held"),
+            "{held}"
+        );
+        assert_eq!(flash.log(), [], "the flash is not touched while moving");
+        press(shared, Button::Forward, false).await;
+        sleep(100).await;
+
+        let quiet = console_session(shared, &flash, &["set speed-forward 0.3", "save"], 100).await;
+        assert!(quiet.contains("saved speed-forward in"), "{quiet}");
+        let since = sim.elapsed().as_secs_f64();
+        press(shared, Button::Forward, true).await;
+        assert!(wait_for_command(&sim, 2000, since, 1).await.is_some());
+        press(shared, Button::Forward, false).await;
+        let speed = sim
+            .requests()
+            .into_iter()
+            .filter(|e| e.t >= since)
+            .find_map(|e| match e.request {
+                Some(Request::Motion(MotionCommand::Move(_, speed))) => Some(speed),
+                _ => None,
+            });
+        assert_eq!(speed, Some(x30_panel::proto::message::Speed::Value(0.3)));
+    })
+    .await;
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn an_unconfirmed_estop_keeps_settings_from_being_saved() {
+    let sim = simulator(1.0);
+    sim.update_faults(|f| f.refuse_estops = 100);
+    with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        press(shared, Button::Estop, true).await;
+        let flash = SimFlash::new(2);
+        let screen = console_session(shared, &flash, &["set repeat-ms 300", "save"], 100).await;
+        assert!(
+            screen.contains("not saved: a stop is going out"),
+            "{screen}"
+        );
+        assert_eq!(flash.log(), []);
+    })
+    .await;
 }

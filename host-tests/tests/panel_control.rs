@@ -403,8 +403,10 @@ fn motion_repeats_at_the_configured_period_while_held_first_at_once() {
 
 #[test]
 fn motion_repeat_period_follows_the_configuration() {
-    let mut config = Config::default();
-    config.motion_repeat = Duration::from_millis(200);
+    let config = Config {
+        motion_repeat: Duration::from_millis(200),
+        ..Config::default()
+    };
     let mut c = connected_with(&config);
     c.press(Button::Forward, 0);
     let sent = run(&mut c, at(0), at(999));

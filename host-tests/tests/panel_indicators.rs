@@ -201,7 +201,7 @@ fn indicators_together_and_when_they_change() {
         view: &v,
         navigating: false,
         last_sent: Some(at(100)),
-        last_command_failed: false,
+        panel_failure: false,
     };
     assert_eq!(
         Indicators::derive(&inputs, at(120)),

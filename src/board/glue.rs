@@ -1,13 +1,18 @@
 //! What every board does the same way around its drivers: the state it shares with the
-//! application, the configuration it logs, the network watch, and running the application
-//! over the three connections. Each board keeps only its drivers and pin map.
+//! application, loading the settings, the console, the network watch, and running the
+//! application over the three connections. Each board keeps only its drivers and pin map.
 
 use embassy_futures::select::{Either, select};
 use embassy_net::Stack;
+use embedded_io_async::{Read, Write};
+use embedded_storage_async::nor_flash::NorFlash;
 use static_cell::ConstStaticCell;
 use x30_panel::app::{self, Shared};
-use x30_panel::config::{Config, Network};
+use x30_panel::config::{Cidr, Config, Network};
+use x30_panel::console::{self, Reboot};
 use x30_panel::panel::NetworkState;
+use x30_panel::settings::store::Store;
+use x30_panel::settings::{self, LoadProblem, Settings};
 
 use super::net::{self, LinkBuffers, SocketBuffers};
 
@@ -21,15 +26,24 @@ static LINK_BUFFERS: ConstStaticCell<LinkBuffers> = ConstStaticCell::new([
     SocketBuffers::new(),
 ]);
 
-/// Logs the configuration the board runs with: invalid settings, the robot, the network.
-pub fn log_config(config: &Config) {
-    for variable in config.problems() {
-        board_log!(
-            warn,
-            "{} is not valid; its default is used",
-            variable.name()
-        );
+/// Loads the saved settings over `defaults` and logs the configuration they give; the
+/// board's first step, before its network and buttons are set up from them. A store that
+/// cannot be read leaves the defaults in place and the fault LED blinking until a save.
+pub async fn load_settings<F: NorFlash>(
+    store: &mut Store<F>,
+    defaults: Config,
+) -> (Settings, Option<LoadProblem>) {
+    let (settings, problem) = settings::load(store, defaults).await;
+    if let Some(problem) = problem {
+        board_log!(warn, "settings: {:?}", problem);
+        SHARED.set_settings_lost(problem.is_loss());
     }
+    log_config(settings.config());
+    (settings, problem)
+}
+
+/// Logs the configuration the board runs with: the robot and the network.
+fn log_config(config: &Config) {
     let [a, b, c, d] = config.robot.ip;
     board_log!(
         info,
@@ -40,7 +54,7 @@ pub fn log_config(config: &Config) {
         d,
         config.robot.port
     );
-    match config.network {
+    match config.network() {
         Network::Dhcp => board_log!(info, "network: DHCP"),
         Network::Static(s) => {
             let [a, b, c, d] = s.address;
@@ -58,6 +72,20 @@ pub fn log_config(config: &Config) {
     }
 }
 
+/// Runs the serial console over `rx` and `tx` forever, saving through `store`; restarts
+/// the board when asked to.
+pub async fn run_console<R: Read, W: Write, F: NorFlash>(
+    rx: R,
+    tx: W,
+    mut store: Store<F>,
+    mut settings: Settings,
+    problem: Option<LoadProblem>,
+) -> ! {
+    let _: Reboot = console::run(rx, tx, &mut store, &mut settings, problem, &SHARED).await;
+    board_log!(info, "rebooting, as asked on the console");
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
 /// Runs the panel on `stack` with `config`, forever; call once.
 pub async fn run_app(stack: Stack<'static>, config: &Config) -> ! {
     let buffers = LINK_BUFFERS.take();
@@ -73,14 +101,23 @@ pub async fn network_watch_task(stack: Stack<'static>) -> ! {
         stack.wait_link_up().await;
         board_log!(info, "Ethernet link up");
         if let Either::First(()) = select(stack.wait_config_up(), stack.wait_link_down()).await {
-            match stack.config_v4() {
-                Some(v4) => board_log!(info, "network up: {}", v4.address),
+            let address = stack.config_v4().map(|v4| Cidr {
+                address: v4.address.address().octets(),
+                prefix_len: v4.address.prefix_len(),
+            });
+            match address {
+                Some(Cidr {
+                    address: [a, b, c, d],
+                    prefix_len,
+                }) => board_log!(info, "network up: {}.{}.{}.{}/{}", a, b, c, d, prefix_len),
                 None => board_log!(info, "network up"),
             }
+            SHARED.set_board_address(address);
             SHARED.set_network(NetworkState::Up);
             // A lost lease counts as no network too.
             select(stack.wait_link_down(), stack.wait_config_down()).await;
             SHARED.set_network(NetworkState::Down);
+            SHARED.set_board_address(None);
         }
         board_log!(warn, "network down");
     }

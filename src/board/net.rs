@@ -73,7 +73,7 @@ pub fn connections<'d>(
 }
 
 /// The stack configuration for the board's network settings.
-pub fn stack_config(network: &Network) -> embassy_net::Config {
+pub fn stack_config(network: Network) -> embassy_net::Config {
     match network {
         Network::Dhcp => embassy_net::Config::dhcpv4(Default::default()),
         Network::Static(settings) => {
@@ -176,5 +176,9 @@ impl Transport for TcpTransport<'_> {
 
     async fn close(&mut self) {
         self.abort().await;
+    }
+
+    fn set_robot(&mut self, robot: RobotAddress) {
+        self.remote = endpoint(robot);
     }
 }

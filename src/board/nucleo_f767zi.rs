@@ -1,27 +1,32 @@
 //! ST NUCLEO-F767ZI (MB1137): STM32F767ZI at 216 MHz, on-board LAN8742A Ethernet PHY, three
-//! user LEDs, ST-LINK for flashing and defmt logs over RTT.
+//! user LEDs, ST-LINK for flashing, defmt logs over RTT and the serial console.
 //!
+//! - **Settings**: loaded at start-up, before anything runs on them, from flash sectors 1
+//!   and 2 (0x0800_8000..0x0801_8000) over the build-time defaults ([`settings_flash`]).
+//! - **Console**: USART3 on PD8/PD9, the ST-LINK's virtual COM port, 115200 8N1
+//!   ([`console`]): shows, changes and saves the settings.
 //! - **Network**: the STM32's Ethernet MAC in RMII mode with the LAN8742A at PHY address 0,
-//!   under embassy-net: DHCP by default or the static address of `X30_DHCP=0 X30_IP=…`
-//!   (`x30_panel::config`), a random seed from the RNG, and three TCP connections to the robot
-//!   ([`super::net`]). The MAC address is locally administered and derived from the chip's
-//!   unique ID, so it is stable per board (DHCP reservations work) and unique between boards.
+//!   under embassy-net: DHCP, or the static address the settings give, a random seed from
+//!   the RNG, and three TCP connections to the robot ([`super::net`]). The MAC address is
+//!   locally administered and derived from the chip's unique ID, so it is stable per board
+//!   (DHCP reservations work) and unique between boards.
 //! - **Buttons**: 14 GPIO inputs with the MCU's pull-ups, pressed = low (a button connects its
 //!   pin to GND), sampled every 2 ms and debounced ([`buttons`]). The `estop` switch may be
-//!   wired normally closed instead (`X30_ESTOP_WIRING=nc`): then a broken wire reads as
+//!   wired normally closed instead (setting `estop-input nc`): then a broken wire reads as
 //!   pressed.
 //! - **LEDs**: LD1 green = link, LD2 blue = activity, LD3 red = fault ([`leds`]).
 //! - **Watchdog**: the IWDG, 1.5 s, fed only while both the button task and the command loop
-//!   show progress ([`watchdog`]).
+//!   show progress ([`watchdog`]), and around each erase of a settings sector, which stops
+//!   the CPU for up to 0.8 s.
 //!
 //! # Pin map
 //!
 //! All 14 buttons sit on the right-hand column of the Zio connector CN10 (the even pins),
 //! with a GND pin (CN10-22) among them for the common return. None of these pins is used by
-//! the Ethernet RMII (PA1, PA2, PA7, PB13, PC1, PC4, PC5, PG11, PG13), the ST-LINK virtual
-//! COM port (USART3, PD8/PD9), USB OTG FS (PA8–PA12, PG6, PG7), the user LEDs (PB0, PB7,
-//! PB14), the user button (PC13), SWD/SWO (PA13, PA14, PB3) or the oscillators (PH0, PH1,
-//! PC14, PC15).
+//! the Ethernet RMII (PA1, PA2, PA7, PB13, PC1, PC4, PC5, PG11, PG13), the console (USART3,
+//! PD8/PD9, the ST-LINK's virtual COM port), USB OTG FS (PA8–PA12, PG6, PG7), the user LEDs
+//! (PB0, PB7, PB14), the user button (PC13), SWD/SWO (PA13, PA14, PB3) or the oscillators
+//! (PH0, PH1, PC14, PC15).
 //!
 //! | button | pin | CN10 pin | Zio label |
 //! |---|---|---|---|
@@ -47,11 +52,18 @@
 //! | LD2 blue | PB7 | activity: a flash per command; steady while a navigation task runs |
 //! | LD3 red | PB14 | fault: on — the robot reports a fault; blinking — status unreadable or the last command failed |
 //!
-//! D0/D1 (PG9/PG14) are USART6 on Arduino shields, not the ST-LINK's serial port, which is
-//! USART3 on PD8/PD9; a shield must not drive them.
+//! | console | pin | connected to |
+//! |---|---|---|
+//! | USART3 TX | PD8 | the ST-LINK's virtual COM port (the board's default solder bridges) |
+//! | USART3 RX | PD9 | the ST-LINK's virtual COM port (the board's default solder bridges) |
+//!
+//! D0/D1 (PG9/PG14) are USART6 on Arduino shields, not the console, which is USART3 on
+//! PD8/PD9; a shield must not drive them.
 
 mod buttons;
+mod console;
 mod leds;
+mod settings_flash;
 mod watchdog;
 
 use defmt::{info, unwrap};
@@ -59,23 +71,27 @@ use embassy_executor::Spawner;
 use embassy_net::{Runner, StackResources};
 use embassy_stm32::eth::{self, Ethernet, GenericPhy, PacketQueue, Sma};
 use embassy_stm32::gpio::{Level, Output, Speed};
-use embassy_stm32::peripherals::{ETH, ETH_SMA, RNG};
+use embassy_stm32::peripherals::{ETH, ETH_SMA, RNG, USART3};
 use embassy_stm32::rcc::{
-    AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv, PllSource,
-    Sysclk, mux,
+    self, AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPDiv, PllPreDiv, PllQDiv,
+    PllSource, Sysclk, mux,
 };
 use embassy_stm32::rng::{self, Rng};
 use embassy_stm32::time::Hertz;
+use embassy_stm32::usart::BufferedInterruptHandler;
 use embassy_stm32::{Config as HalConfig, bind_interrupts, uid};
 use static_cell::ConstStaticCell;
 use x30_panel::config::Config;
+use x30_panel::settings::store::Store;
 // Linked for their side effects only: the defmt RTT transport and the panic handler, which
 // prints the panic message over defmt and halts the probe session with an error. Without a
 // probe the halted core stops feeding the watchdog, which resets the board.
 use {defmt_rtt as _, panic_probe as _};
 
 use self::buttons::{Buttons, button_task};
+use self::console::console_task;
 use self::leds::{Leds, led_task};
+use self::settings_flash::SettingsFlash;
 use self::watchdog::watchdog_task;
 use super::glue;
 use super::net::{self, SOCKETS};
@@ -87,6 +103,7 @@ defmt::timestamp!("{=u64:us}", embassy_time::Instant::now().as_micros());
 bind_interrupts!(struct Irqs {
     ETH => eth::InterruptHandler;
     RNG => rng::InterruptHandler<RNG>;
+    USART3 => BufferedInterruptHandler<USART3>;
 });
 
 /// The LAN8742A's SMI (MDIO) address on the Nucleo-144 boards, as ST's own examples use it.
@@ -115,7 +132,17 @@ pub async fn run(spawner: Spawner) -> ! {
     info!("x30-panel {} on NUCLEO-F767ZI", env!("CARGO_PKG_VERSION"));
     watchdog::log_reset_cause();
     let dog = watchdog::start(p.IWDG);
-    let config = config();
+
+    // The settings first: the network, the buttons and the application run on them. The
+    // core's cycle counter times the flash erases, which stop embassy's clock.
+    let mut core = unwrap!(cortex_m::Peripherals::take());
+    let sysclk = unwrap!(rcc::clocks(&p.RCC).sys.to_hertz());
+    let flash = SettingsFlash::new(p.FLASH, &mut core.DCB, core.DWT, sysclk);
+    let mut store = Store::new(flash, settings_flash::RANGE);
+    let (settings, problem) = glue::load_settings(&mut store, Config::from_build_env()).await;
+    // The console keeps the settings; the rest of the board runs on this copy.
+    let config = settings.config().clone();
+    let (console_rx, console_tx) = console::open(p.USART3, p.PD8, p.PD9);
 
     // The LEDs are active high; all start off so that a lit LED always means something.
     let leds = Leds {
@@ -166,7 +193,7 @@ pub async fn run(spawner: Spawner) -> ! {
     );
     let (stack, runner) = embassy_net::new(
         device,
-        net::stack_config(&config.network),
+        net::stack_config(config.network()),
         RESOURCES.take(),
         seed,
     );
@@ -180,19 +207,14 @@ pub async fn run(spawner: Spawner) -> ! {
     spawner.spawn(unwrap!(button_task(
         buttons,
         config.debounce,
-        config.estop_wiring,
+        config.estop_input,
         &glue::SHARED
+    )));
+    spawner.spawn(unwrap!(console_task(
+        console_rx, console_tx, store, settings, problem
     )));
 
     glue::run_app(stack, &config).await
-}
-
-/// The build-time configuration, logged.
-fn config() -> Config {
-    let config = Config::from_build_env();
-    glue::log_config(&config);
-    info!("configuration: {}", config);
-    config
 }
 
 /// A locally administered, unicast MAC address derived from the chip's 96-bit unique ID:

@@ -4,6 +4,7 @@ use embassy_time::{Duration, Instant, with_timeout};
 use embedded_io_async::{Error as _, ErrorKind, Read, Write};
 
 use super::{Backoff, ClientError, RobotClock};
+use crate::config::RobotAddress;
 use crate::proto::codes::MessageType;
 use crate::proto::frame::{self, FrameDecoder, FrameError, MessageIds};
 use crate::proto::message::{
@@ -29,6 +30,8 @@ pub trait Transport: Read + Write {
     async fn connect(&mut self) -> Result<(), ErrorKind>;
     /// Closes the connection, so that the robot sees it gone.
     async fn close(&mut self);
+    /// Where the next `connect` goes: the robot's address was changed in the settings.
+    fn set_robot(&mut self, robot: RobotAddress);
 }
 
 /// What went by on a connection that was not an answer to a request outstanding on it.
@@ -182,6 +185,14 @@ impl<T: Transport> Connection<T> {
             }
             Err(kind) => Err(self.retry_delay(kind)),
         }
+    }
+
+    /// Closes the connection and opens the next one to `robot`, with a fresh backoff:
+    /// another robot has not refused anything yet.
+    pub async fn retarget(&mut self, robot: RobotAddress) {
+        self.disconnect().await;
+        self.transport.set_robot(robot);
+        self.backoff.reset();
     }
 
     /// Closes the connection and forgets any partial answer and every outstanding request.

@@ -200,6 +200,15 @@ pub struct Control {
 }
 
 impl Control {
+    /// Takes the speeds, light presets, dock point and repeat period of `config`; a held
+    /// button repeats at the new speed from its next repeat.
+    pub fn reconfigure(&mut self, config: &Config) {
+        self.speeds = config.speeds;
+        self.lights = config.lights.clone();
+        self.dock = config.dock;
+        self.repeat = config.motion_repeat;
+    }
+
     /// A control state machine with the configured speeds, light presets, dock point and
     /// repeat period; disconnected, nothing held.
     pub fn new(config: &Config) -> Self {

@@ -10,7 +10,8 @@
 //! - **activity** (blue): on for [`FLASH`] after each command, steady while a navigation task
 //!   runs.
 //! - **fault** (red): on while the robot reports a [`Fault`]; otherwise blinking when the
-//!   status cannot be read although connected, or when the last command failed.
+//!   status cannot be read although connected, when the last command failed, or while the
+//!   saved settings could not be read (the defaults are in use).
 
 use embassy_time::{Duration, Instant};
 
@@ -167,18 +168,13 @@ pub fn activity_led(navigating: bool, last_sent: Option<Instant>, now: Instant) 
 }
 
 /// The fault LED.
-pub fn fault_led(
-    link: LinkState,
-    view: &RobotView,
-    last_command_failed: bool,
-    now: Instant,
-) -> Led {
+pub fn fault_led(link: LinkState, view: &RobotView, panel_failure: bool, now: Instant) -> Led {
     // Without a connection the link LED already says why nothing can be read.
     let unreadable = matches!(link, LinkState::Connected | LinkState::NotAnswering)
         && !view.status_readable(now);
     if fault(view, now).is_some() {
         Led::On
-    } else if unreadable || last_command_failed {
+    } else if unreadable || panel_failure {
         Led::Blink
     } else {
         Led::Off
@@ -196,8 +192,9 @@ pub struct Inputs<'a> {
     pub navigating: bool,
     /// When the last command was sent.
     pub last_sent: Option<Instant>,
-    /// Whether the last command failed.
-    pub last_command_failed: bool,
+    /// Whether the panel has a failure to show: the last command failed, or the saved
+    /// settings could not be read.
+    pub panel_failure: bool,
 }
 
 /// The state of the three LEDs.
@@ -218,7 +215,7 @@ impl Indicators {
         Self {
             link: link_led(inputs.link, inputs.view, now),
             activity: activity_led(inputs.navigating, inputs.last_sent, now),
-            fault: fault_led(inputs.link, inputs.view, inputs.last_command_failed, now),
+            fault: fault_led(inputs.link, inputs.view, inputs.panel_failure, now),
         }
     }
 

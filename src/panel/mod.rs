@@ -98,6 +98,32 @@ pub struct Panel {
     commands: ConnectionState,
     /// The poll connection.
     polls: ConnectionState,
+    /// Whether the saved settings could not be read, so the defaults are in use.
+    settings_lost: bool,
+}
+
+/// Why the panel is not quiet enough to save settings: a flash erase stalls the board, and
+/// nothing a person is doing may wait for it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Busy {
+    /// An e-stop, zero velocity or cancel waits to go out, or an e-stop is not confirmed.
+    StopPending,
+    /// A motion button is held.
+    MotionHeld,
+    /// A navigation task runs.
+    TaskRunning,
+}
+
+impl Busy {
+    /// What the panel is doing, in words.
+    pub const fn description(self) -> &'static str {
+        match self {
+            Self::StopPending => "a stop is going out or an e-stop is not yet confirmed",
+            Self::MotionHeld => "a motion button is held",
+            Self::TaskRunning => "a navigation task runs",
+        }
+    }
 }
 
 impl Panel {
@@ -110,6 +136,34 @@ impl Panel {
             network: NetworkState::Down,
             commands: ConnectionState::Connecting,
             polls: ConnectionState::Connecting,
+            settings_lost: false,
+        }
+    }
+
+    /// Takes new settings in, keeping every state: what is held stays held, a latched
+    /// e-stop stays latched, a running task runs on.
+    pub fn reconfigure(&mut self, config: &Config) {
+        self.control.reconfigure(config);
+        self.monitor.reconfigure(config);
+        self.view.reconfigure(config);
+    }
+
+    /// Whether the saved settings could not be read (the fault LED blinks while so).
+    pub fn settings_lost(&mut self, lost: bool) {
+        self.settings_lost = lost;
+    }
+
+    /// Why settings must not be saved now, if they must not.
+    pub fn busy(&self) -> Option<Busy> {
+        let control = &self.control;
+        if control.stop_pending() || control.estop_unconfirmed() {
+            Some(Busy::StopPending)
+        } else if control.active_motion().is_some() {
+            Some(Busy::MotionHeld)
+        } else if control.navigating() {
+            Some(Busy::TaskRunning)
+        } else {
+            None
         }
     }
 
@@ -287,7 +341,7 @@ impl Panel {
             view: &self.view,
             navigating: self.control.navigating(),
             last_sent: self.control.last_sent(),
-            last_command_failed: self.control.last_failed(),
+            panel_failure: self.control.last_failed() || self.settings_lost,
         }
     }
 }

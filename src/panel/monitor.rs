@@ -77,6 +77,14 @@ pub struct Monitor {
 }
 
 impl Monitor {
+    /// Takes the poll periods of `config`; polls already scheduled keep their time.
+    pub fn reconfigure(&mut self, config: &Config) {
+        let fresh = Self::new(config);
+        for (schedule, new) in self.schedules.iter_mut().zip(fresh.schedules) {
+            schedule.period = new.period;
+        }
+    }
+
     /// A schedule with the configured periods; nothing is due until the robot is connected.
     pub fn new(config: &Config) -> Self {
         let p = &config.polls;
@@ -202,6 +210,11 @@ impl RobotView {
         }
     }
 
+    /// Takes the poll periods of `config`, from which the answers' age limits follow.
+    pub fn reconfigure(&mut self, config: &Config) {
+        self.polls = config.polls;
+    }
+
     /// Takes in an answer that arrived at `now`; answers to commands are not kept.
     pub fn update(&mut self, response: &Response, now: Instant) {
         match *response {
@@ -246,6 +259,11 @@ impl RobotView {
             .at
             .saturating_add(stale_limit(self.polls.status));
         (at > now).then_some(at)
+    }
+
+    /// The latest battery answer as received, however old, with its arrival time.
+    pub fn last_battery(&self) -> Option<&Stamped<Battery>> {
+        self.battery.as_ref()
     }
 
     /// The battery answer if it is fresh at `now`.

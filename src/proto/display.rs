@@ -157,3 +157,16 @@ impl core::error::Error for DecodeError {}
 impl core::error::Error for WriteError {}
 impl core::error::Error for ValidationError {}
 impl core::error::Error for BadTimestamp {}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for NumberError {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        let name = match self {
+            Self::Empty => "Empty",
+            Self::Invalid => "Invalid",
+            Self::OutOfRange => "OutOfRange",
+            Self::NotFinite => "NotFinite",
+        };
+        defmt::write!(f, "{=str}", name);
+    }
+}

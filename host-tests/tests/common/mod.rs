@@ -5,6 +5,7 @@ use embedded_io_async::{Error, ErrorKind, ErrorType, Read, Write};
 use std::net::SocketAddr;
 use tokio::net::TcpStream;
 use x30_panel::client::Transport;
+use x30_panel::config::RobotAddress;
 
 /// A client transport over a tokio `TcpStream`, reconnectable like the board's socket.
 pub struct TokioTransport {
@@ -61,5 +62,9 @@ impl Transport for TokioTransport {
 
     async fn close(&mut self) {
         self.stream = None;
+    }
+
+    fn set_robot(&mut self, robot: RobotAddress) {
+        self.addr = SocketAddr::from((robot.ip, robot.port));
     }
 }

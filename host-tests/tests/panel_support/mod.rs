@@ -6,11 +6,12 @@
 
 use embassy_time::Instant;
 use x30_panel::client::Health;
-use x30_panel::config::{Config, parse_dock};
+use x30_panel::config::Config;
 use x30_panel::panel::ConnectionState;
 use x30_panel::panel::{Button, ButtonEvent, Control, Panel};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::{Battery, Request, RobotStatus};
+use x30_panel::settings::Key;
 
 /// The instant `ms` milliseconds after boot.
 pub fn at(ms: u64) -> Instant {
@@ -58,7 +59,9 @@ impl Buttons for Panel {
 /// A configuration whose `dock` goes to charging point 5 of map 2.
 pub fn with_dock() -> Config {
     let mut config = Config::default();
-    config.dock = parse_dock("5,2,1.5,2.5,0,1");
+    Key::Dock
+        .apply(&mut config, "5,2,1.5,2.5,0,1")
+        .expect("a valid dock point");
     config
 }
 

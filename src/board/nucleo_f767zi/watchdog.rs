@@ -89,6 +89,18 @@ pub async fn watchdog_task(mut dog: Watchdog, shared: &'static Shared) -> ! {
     }
 }
 
+/// Reloads the IWDG at once, giving the firmware the IWDG's full timeout from now.
+///
+/// Only for right before (and after) a known stall of the whole CPU that [`watchdog_task`]
+/// cannot feed through: erasing a flash sector holds every flash read, so no code runs until
+/// the erase ends (`settings_flash`). It bypasses the progress check, so it is not for
+/// anything that could repeat without end.
+pub fn feed_now() {
+    pac::IWDG
+        .kr()
+        .write(|w| w.set_key(pac::iwdg::vals::Key::RESET));
+}
+
 /// Logs why the board last reset, and clears the reset flags for next time.
 pub fn log_reset_cause() {
     let csr = pac::RCC.csr().read();

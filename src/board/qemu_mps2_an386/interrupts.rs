@@ -1,9 +1,10 @@
 //! The board's device interrupts: their NVIC numbers and the vector table.
 //!
-//! The numbers are those of QEMU's `mps2-an386` machine (hw/arm/mps2.c, ARM AN386). Without a
+//! The numbers are those of QEMU's `mps2-an386` machine (its MPS2 board model, ARM AN386):
+//! UART0 and UART1 have RX interrupts 0 and 2, each TX interrupt one more. Without a
 //! peripheral access crate, cortex-m-rt's `device` feature takes the table from here
-//! (`__INTERRUPTS`) and the handler names from `link/mps2-an386-device.x`, where each one
-//! not defined by a driver falls back to cortex-m-rt's `DefaultHandler`.
+//! (`__INTERRUPTS`) and the handler names from this board's `device.x`, where each one not
+//! defined by a driver falls back to cortex-m-rt's `DefaultHandler`.
 
 use cortex_m::interrupt::InterruptNumber;
 use cortex_m::peripheral::NVIC;
@@ -14,6 +15,12 @@ use cortex_m::peripheral::NVIC;
 pub enum Interrupt {
     /// UART0 received a character.
     Uart0Rx = 0,
+    /// UART0's TX buffer emptied.
+    Uart0Tx = 1,
+    /// UART1 received a character.
+    Uart1Rx = 2,
+    /// UART1's TX buffer emptied.
+    Uart1Tx = 3,
     /// CMSDK timer 0 (unused; the time driver reads it without interrupts).
     Timer0 = 8,
     /// CMSDK timer 1 counted down to zero: the time driver's alarm.
@@ -56,6 +63,9 @@ pub union Vector {
 // they are only placed in the table, never called from Rust.
 unsafe extern "C" {
     fn UART0_RX();
+    fn UART0_TX();
+    fn UART1_RX();
+    fn UART1_TX();
     fn TIMER0();
     fn TIMER1();
     fn ETHERNET();
@@ -69,6 +79,9 @@ unsafe extern "C" {
 pub static __INTERRUPTS: [Vector; LINES] = {
     let mut table = [Vector { reserved: 0 }; LINES];
     table[Interrupt::Uart0Rx as usize] = Vector { handler: UART0_RX };
+    table[Interrupt::Uart0Tx as usize] = Vector { handler: UART0_TX };
+    table[Interrupt::Uart1Rx as usize] = Vector { handler: UART1_RX };
+    table[Interrupt::Uart1Tx as usize] = Vector { handler: UART1_TX };
     table[Interrupt::Timer0 as usize] = Vector { handler: TIMER0 };
     table[Interrupt::Timer1 as usize] = Vector { handler: TIMER1 };
     table[Interrupt::Ethernet as usize] = Vector { handler: ETHERNET };

@@ -1,4 +1,4 @@
-//! Semihosting: the board's console, command line and exit status, served by QEMU
+//! Semihosting: the board's log, command line, exit status and host files, served by QEMU
 //! (`-semihosting-config enable=on,target=native`).
 //!
 //! Logs go to QEMU's standard output, one semihosting write per line. Info lines are the
@@ -7,13 +7,14 @@
 //! a failure status, as does a hard fault.
 
 use core::cell::Cell;
+use core::ffi::CStr;
 use core::fmt::{self, Write as _};
 use core::panic::PanicInfo;
 
 use cortex_m_rt::{ExceptionFrame, exception};
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 use cortex_m_semihosting::hio::{self, HostStream};
-use cortex_m_semihosting::nr;
+use cortex_m_semihosting::{nr, syscall};
 use critical_section::{CriticalSection, Mutex};
 use log::{Level, LevelFilter, Log, Metadata, Record};
 
@@ -138,6 +139,92 @@ pub fn command_line(buf: &mut [u8]) -> Option<&str> {
     }
     let text = buf.get(..block[1].min(buf.len()))?;
     core::str::from_utf8(text).ok()
+}
+
+/// A host file operation failed (the host's reason is not kept: nothing here could act on it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HostError;
+
+/// A file on the host, open for reading and writing; closed when dropped.
+#[derive(Debug)]
+pub struct HostFile {
+    /// The host's handle.
+    handle: usize,
+}
+
+impl HostFile {
+    /// Opens the file at `path` for reading and writing at any offset, creating it empty if
+    /// it does not exist; an existing file keeps its contents.
+    pub fn open(path: &CStr) -> Result<Self, HostError> {
+        if let Ok(file) = Self::open_as(path, nr::open::RW_BINARY) {
+            return Ok(file);
+        }
+        // Mode "r+b" does not create; "ab" creates without truncating, but would write at the
+        // end only. So create (or leave alone) with "ab", close, and open with "r+b" again.
+        drop(Self::open_as(path, nr::open::W_APPEND_BINARY)?);
+        Self::open_as(path, nr::open::RW_BINARY)
+    }
+
+    /// SYS_OPEN: `path` in `mode` (an fopen mode number).
+    fn open_as(path: &CStr, mode: usize) -> Result<Self, HostError> {
+        let name = path.to_bytes();
+        // SAFETY: SYS_OPEN reads the NUL-terminated name (its length given without the NUL),
+        // which lives for the duration of the call.
+        let handle = unsafe { syscall!(OPEN, name.as_ptr(), mode, name.len()) };
+        // -1 (as an unsigned word) is the host's error.
+        match isize::try_from(handle) {
+            Ok(_) => Ok(Self { handle }),
+            Err(_) => Err(HostError),
+        }
+    }
+
+    /// The file's size in bytes.
+    pub fn size(&self) -> Result<usize, HostError> {
+        // SAFETY: SYS_FLEN reads only the handle.
+        let size = unsafe { syscall!(FLEN, self.handle) };
+        // -1 (as an unsigned word) is the host's error.
+        match isize::try_from(size) {
+            Ok(_) => Ok(size),
+            Err(_) => Err(HostError),
+        }
+    }
+
+    /// Moves the file position to `offset` bytes from the start.
+    fn seek(&mut self, offset: usize) -> Result<(), HostError> {
+        // SAFETY: SYS_SEEK reads only the handle and the position.
+        let status = unsafe { syscall!(SEEK, self.handle, offset) };
+        if status == 0 { Ok(()) } else { Err(HostError) }
+    }
+
+    /// Reads into `buf` from `offset`; the number of bytes read, less than `buf.len()` only at
+    /// the end of the file.
+    pub fn read_at(&mut self, offset: usize, buf: &mut [u8]) -> Result<usize, HostError> {
+        self.seek(offset)?;
+        // SAFETY: SYS_READ writes at most `buf.len()` bytes into `buf`, which is valid for
+        // writes for the duration of the call.
+        let missing = unsafe { syscall!(READ, self.handle, buf.as_mut_ptr(), buf.len()) };
+        // The host answers with the number of bytes it did *not* read.
+        buf.len().checked_sub(missing).ok_or(HostError)
+    }
+
+    /// Writes all of `data` at `offset`.
+    pub fn write_at(&mut self, offset: usize, data: &[u8]) -> Result<(), HostError> {
+        self.seek(offset)?;
+        // SAFETY: SYS_WRITE reads `data.len()` bytes from `data`, valid for the duration of
+        // the call.
+        let missing = unsafe { syscall!(WRITE, self.handle, data.as_ptr(), data.len()) };
+        // The host answers with the number of bytes it did *not* write; a short write is a
+        // full disk or an I/O error, not worth retrying.
+        if missing == 0 { Ok(()) } else { Err(HostError) }
+    }
+}
+
+impl Drop for HostFile {
+    fn drop(&mut self) {
+        // SAFETY: SYS_CLOSE reads only the handle, which is not used again. Nothing can be
+        // done about a failed close.
+        let _ = unsafe { syscall!(CLOSE, self.handle) };
+    }
 }
 
 /// Ends the QEMU run with status 0 (`success`) or 1.

@@ -40,8 +40,10 @@
 use core::cmp::Ordering;
 
 /// Why a number's text was rejected.
+///
+/// (Its `defmt::Format` impl is in `proto::display`: the build script includes this file,
+/// and has no defmt.)
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum NumberError {
     /// The text is empty.

@@ -2,9 +2,15 @@
 //! this machine (normally `x30-sim`), and drives its virtual panel from standard input.
 //!
 //! Input lines are button presses and releases (`+forward`, `-forward`), pauses
-//! (`sleep MS`), waits for the firmware (`wait led link on`) and comments, so a scripted
-//! session is a plain text file; see [`script`]. Standard output carries exactly what the
-//! firmware and QEMU print (`led link on`, …); x30-qemu's own messages go to standard error.
+//! (`sleep MS`), waits for the firmware (`wait led link on`), lines typed on the serial
+//! console (`console show`) and comments, so a scripted session is a plain text file; see
+//! [`script`]. Standard output carries exactly what the firmware and QEMU print
+//! (`led link on`, …) and the console's lines (`console: LINE`); x30-qemu's own messages go
+//! to standard error.
+//!
+//! The firmware's settings flash is a file (`--settings`, else a fresh one per run), and its
+//! serial console (UART1) reaches x30-qemu over a Unix socket; both live in a private
+//! temporary folder that x30-qemu removes at exit.
 //!
 //! Exit status: 0 after a clean run, 1 if the firmware panicked, QEMU failed, a `wait` timed
 //! out or an input line was invalid, 2 for a usage or set-up problem (no QEMU, a robot
@@ -12,6 +18,7 @@
 
 #![deny(unsafe_code)]
 
+mod console;
 mod firmware;
 mod qemu;
 mod script;
@@ -24,6 +31,7 @@ use std::time::Duration;
 
 use clap::Parser;
 
+use console::Console;
 use session::{Event, Options, Outcome, Session};
 
 /// Exit status for usage and set-up problems.
@@ -36,11 +44,13 @@ const SETUP_FAILURE: u8 = 2;
 /// turn-right strafe-left strafe-right stop estop stop-stepping lie-down gait light dock
 /// cancel); `sleep MS` pauses; `wait TEXT` pauses until the firmware prints a line
 /// containing TEXT (`wait led link on` also returns at once if the link LED is already on);
-/// `send TEXT` sends TEXT to the UART as it is; `# ...` and blank lines are ignored. At the
-/// end of input the firmware runs on for --grace-ms, then QEMU is stopped.
+/// `send TEXT` sends TEXT to the UART as it is; `console TEXT` types TEXT and Enter on the
+/// firmware's serial console; `# ...` and blank lines are ignored. At the end of input the
+/// firmware runs on for --grace-ms, then QEMU is stopped.
 ///
 /// Standard output is what the firmware prints (`led NAME on|off|blink|blink-fast`, commands sent,
-/// connection state, `panic: ...`); x30-qemu's own messages go to standard error.
+/// connection state, `panic: ...`) and each line of its serial console as `console: LINE`
+/// (`wait console: saved` waits for one); x30-qemu's own messages go to standard error.
 ///
 /// Exit status: 0 clean run; 1 firmware panic, QEMU failure, `wait` timed out or invalid
 /// input line; 2 usage or set-up problem; 124 --timeout-s passed; 130 Ctrl-C.
@@ -59,8 +69,14 @@ struct Cli {
     #[arg(long, value_name = "ELF")]
     firmware: Option<PathBuf>,
     /// Only build the firmware and print the ELF's path.
-    #[arg(long, conflicts_with_all = ["robot", "firmware"])]
+    #[arg(long, conflicts_with_all = ["robot", "firmware", "settings"])]
     build_only: bool,
+    /// The file behind the firmware's settings flash (64 KiB; created if it does not exist,
+    /// and an empty file is a blank flash), so that settings saved on the console survive
+    /// to the next run. Default: a fresh file, removed at exit. The path may not contain
+    /// whitespace.
+    #[arg(long, value_name = "FILE")]
+    settings: Option<PathBuf>,
     /// The QEMU program.
     #[arg(long, value_name = "PROGRAM", default_value = "qemu-system-arm")]
     qemu: PathBuf,
@@ -127,22 +143,33 @@ fn run(cli: &Cli) -> Result<u8, String> {
     })
     .map_err(|e| format!("cannot install the Ctrl-C handler: {e}"))?;
 
-    let args = qemu::args(&elf, guest_robot, &cli.qemu_args);
+    // Removed when `folder` is dropped at the end of this function (only a killed x30-qemu
+    // leaves it behind).
+    let folder = tempfile::Builder::new()
+        .prefix("x30-qemu-")
+        .tempdir()
+        .map_err(|e| format!("cannot make a temporary folder: {e}"))?;
+    let settings = qemu::settings_file(cli.settings.as_deref(), folder.path())?;
+    let console = Console::listen(&folder.path().join("console.sock"))?;
+    let args = qemu::args(&elf, guest_robot, &settings, console.path(), &cli.qemu_args);
     eprintln!(
-        "x30-qemu: booting {} with {}: robot {robot} is {guest_robot} for the guest",
+        "x30-qemu: booting {} with {}: robot {robot} is {guest_robot} for the guest, \
+         settings in {}",
         elf.display(),
-        program.display()
+        program.display(),
+        settings.display()
     );
     let child = qemu::spawn(&program, &args)
         .map_err(|e| format!("cannot start {}: {e}", program.display()))?;
     // The input is read only once QEMU runs: lines typed earlier wait in the pipe.
     session::spawn_input_reader(sender.clone());
+    let typed = console.start(sender.clone());
     let options = Options {
         grace: Duration::from_millis(cli.grace_ms),
         timeout: cli.timeout_s.map(Duration::from_secs),
         wait_timeout: Duration::from_secs(cli.wait_timeout_s),
     };
-    let report = Session::new(child, &sender, events, options).run();
+    let report = Session::new(child, &sender, events, typed, options).run();
     let outcome = match &report.outcome {
         Outcome::Finished => "input done; QEMU stopped".to_owned(),
         Outcome::Exited(status) => format!("QEMU exited by itself ({status})"),

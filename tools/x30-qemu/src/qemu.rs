@@ -1,7 +1,8 @@
 //! QEMU's command line, and starting it so that it never outlives x30-qemu.
 
 use std::env;
-use std::ffi::OsString;
+use std::ffi::{OsStr, OsString};
+use std::fs;
 use std::io;
 use std::net::{Ipv4Addr, SocketAddr};
 use std::path::{Path, PathBuf};
@@ -37,25 +38,91 @@ pub fn guest_robot(robot: &str) -> Result<SocketAddr, String> {
     Ok(SocketAddr::new(GUEST_HOST.into(), port))
 }
 
+/// The longest settings file path the firmware takes, in bytes.
+const MAX_SETTINGS_PATH: usize = 255;
+
+/// The file behind the firmware's settings flash, as an absolute path (the firmware opens it
+/// from QEMU's point of view): `named` (created empty if it does not exist), else a fresh
+/// `settings.bin` in `dir`.
+///
+/// The path travels on the semihosting command line, whose arguments are separated by
+/// spaces, so it may not contain whitespace; the firmware takes up to 255 bytes of UTF-8.
+pub fn settings_file(named: Option<&Path>, dir: &Path) -> Result<PathBuf, String> {
+    let path = named.map_or_else(|| dir.join("settings.bin"), Path::to_owned);
+    let shown = path.display();
+    let path = std::path::absolute(&path).map_err(|e| format!("--settings {shown}: {e}"))?;
+    let text = path
+        .to_str()
+        .ok_or_else(|| format!("--settings {shown}: the path is not UTF-8"))?;
+    if text.contains(char::is_whitespace) {
+        return Err(format!(
+            "--settings {shown}: the path contains whitespace, which the firmware's command \
+             line cannot carry"
+        ));
+    }
+    if text.len() > MAX_SETTINGS_PATH {
+        return Err(format!(
+            "--settings {shown}: the path is longer than {MAX_SETTINGS_PATH} bytes"
+        ));
+    }
+    // Created if missing, never truncated: an empty file is a blank flash, and a saved one
+    // must survive.
+    fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&path)
+        .map_err(|e| format!("--settings {shown}: cannot open or create it: {e}"))?;
+    Ok(path)
+}
+
+/// `value` for a QEMU option list, where a comma separates options unless doubled.
+fn option_value(value: &OsStr) -> OsString {
+    use std::os::unix::ffi::{OsStrExt, OsStringExt};
+    let mut escaped = Vec::with_capacity(value.len());
+    for &byte in value.as_bytes() {
+        escaped.push(byte);
+        if byte == b',' {
+            escaped.push(b',');
+        }
+    }
+    OsString::from_vec(escaped)
+}
+
+/// `prefix` followed by `value` escaped for a QEMU option list.
+fn option(prefix: &str, value: &OsStr) -> OsString {
+    let mut option = OsString::from(prefix);
+    option.push(option_value(value));
+    option
+}
+
 /// QEMU's arguments: the mps2-an386 machine, its LAN9118 on user networking, UART0 on QEMU's
-/// standard input and output, semihosting passing the robot's address as the firmware's
-/// command line, no monitor (its prompt would mix with the output and eat input), and the
-/// firmware ELF. `extra` goes last, so that it can add to or override what comes before.
-pub fn args(elf: &Path, guest_robot: SocketAddr, extra: &[String]) -> Vec<OsString> {
-    let mut args: Vec<OsString> = [
-        "-M",
-        "mps2-an386",
-        "-nographic",
-        "-monitor",
-        "none",
-        "-serial",
-        "stdio",
-        "-semihosting-config",
-    ]
-    .into_iter()
-    .map(OsString::from)
-    .collect();
-    args.push(format!("enable=on,target=native,arg=x30-panel,arg={guest_robot}").into());
+/// standard input and output, UART1 (the serial console) on the Unix socket `console`
+/// (QEMU connects to it), semihosting passing the robot's address and the settings file as
+/// the firmware's command line, no monitor (its prompt would mix with the output and eat
+/// input), and the firmware ELF. `extra` goes last, so that it can add to or override what
+/// comes before.
+pub fn args(
+    elf: &Path,
+    guest_robot: SocketAddr,
+    settings: &Path,
+    console: &Path,
+    extra: &[String],
+) -> Vec<OsString> {
+    let mut args: Vec<OsString> = ["-M", "mps2-an386", "-nographic", "-monitor", "none"]
+        .into_iter()
+        .map(OsString::from)
+        .collect();
+    args.push("-chardev".into());
+    args.push(option("socket,id=console,path=", console.as_os_str()));
+    // The N-th -serial is UART N.
+    args.extend(["-serial", "stdio", "-serial", "chardev:console"].map(OsString::from));
+    args.push("-semihosting-config".into());
+    args.push(option(
+        &format!("enable=on,target=native,arg=x30-panel,arg={guest_robot},arg=settings="),
+        settings.as_os_str(),
+    ));
     args.extend(["-nic", "user,model=lan9118", "-kernel"].map(OsString::from));
     args.push(elf.into());
     args.extend(extra.iter().map(OsString::from));
@@ -170,14 +237,85 @@ mod tests {
         let args = args(
             Path::new("/fw/x30-panel"),
             "10.0.2.2:30001".parse().unwrap(),
+            Path::new("/run/settings.bin"),
+            Path::new("/tmp/x30-qemu-1/console.sock"),
             &["-d".into(), "guest_errors".into()],
         );
         let args: Vec<&str> = args.iter().map(|a| a.to_str().unwrap()).collect();
         assert_eq!(
             args.join(" "),
-            "-M mps2-an386 -nographic -monitor none -serial stdio -semihosting-config \
-             enable=on,target=native,arg=x30-panel,arg=10.0.2.2:30001 \
+            "-M mps2-an386 -nographic -monitor none \
+             -chardev socket,id=console,path=/tmp/x30-qemu-1/console.sock \
+             -serial stdio -serial chardev:console -semihosting-config \
+             enable=on,target=native,arg=x30-panel,arg=10.0.2.2:30001,arg=settings=/run/settings.bin \
              -nic user,model=lan9118 -kernel /fw/x30-panel -d guest_errors"
+        );
+    }
+
+    #[test]
+    fn commas_in_paths_are_doubled_for_qemu() {
+        let args = args(
+            Path::new("/fw/x30-panel"),
+            "10.0.2.2:30001".parse().unwrap(),
+            Path::new("/a,b/settings.bin"),
+            Path::new("/t,mp/console.sock"),
+            &[],
+        );
+        let args: Vec<&str> = args.iter().map(|a| a.to_str().unwrap()).collect();
+        assert!(args.contains(&"socket,id=console,path=/t,,mp/console.sock"));
+        assert!(
+            args.iter()
+                .any(|a| a.ends_with(",arg=settings=/a,,b/settings.bin"))
+        );
+    }
+
+    /// A fresh folder for one test.
+    fn folder() -> tempfile::TempDir {
+        tempfile::Builder::new()
+            .prefix("x30-qemu-test-")
+            .tempdir()
+            .unwrap()
+    }
+
+    #[test]
+    fn the_default_settings_file_is_a_fresh_empty_one_in_the_folder() {
+        let dir = folder();
+        let path = settings_file(None, dir.path()).unwrap();
+        assert!(path.is_absolute());
+        assert_eq!(path, dir.path().join("settings.bin"));
+        assert_eq!(fs::metadata(&path).unwrap().len(), 0);
+    }
+
+    #[test]
+    fn a_named_settings_file_is_created_if_missing_and_kept_if_not() {
+        let dir = folder();
+        let named = dir.path().join("saved.bin");
+        let path = settings_file(Some(&named), Path::new("/nonexistent")).unwrap();
+        assert_eq!(path, named);
+        assert_eq!(fs::metadata(&path).unwrap().len(), 0);
+        fs::write(&path, [0x12u8; 100]).unwrap();
+        settings_file(Some(&named), Path::new("/nonexistent")).unwrap();
+        assert_eq!(fs::read(&path).unwrap(), [0x12u8; 100]);
+    }
+
+    #[test]
+    fn unusable_settings_paths_are_refused() {
+        let dir = folder();
+        let spaced = dir.path().join("my settings.bin");
+        let err = settings_file(Some(&spaced), dir.path()).unwrap_err();
+        assert!(err.contains("whitespace"), "{err}");
+        let long = dir.path().join("s".repeat(250));
+        let err = settings_file(Some(&long), dir.path()).unwrap_err();
+        assert!(err.contains("longer than 255 bytes"), "{err}");
+        // Refused before anything was created.
+        assert!(!spaced.exists() && !long.exists());
+        let relative = settings_file(Some(Path::new("x30-qemu-no-such-dir/s.bin")), dir.path());
+        assert!(relative.unwrap_err().contains("cannot open or create it"));
+        let missing = Path::new("/nonexistent/settings.bin");
+        let err = settings_file(Some(missing), dir.path()).unwrap_err();
+        assert!(
+            err.starts_with("--settings /nonexistent/settings.bin: cannot open or create it"),
+            "{err}"
         );
     }
 

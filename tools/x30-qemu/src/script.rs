@@ -8,7 +8,13 @@
 //! sleep 2000            pause the script for 2000 ms (x30-qemu itself; nothing is sent)
 //! -forward              release it
 //! send TEXT             send TEXT to the UART as it is (for testing the firmware's parser)
+//! console TEXT          type TEXT and Enter on the serial console (UART1)
+//! wait console: saved   wait until the console prints a line containing "saved"
 //! ```
+//!
+//! The serial console's output comes on standard output one line at a time, each as
+//! `console: LINE`, so `wait` finds it like any other line. The console echoes what is
+//! typed after its prompt, so a command shows as one line: `console: x30> show`.
 
 use std::fmt;
 use std::time::Duration;
@@ -28,6 +34,8 @@ fn is_led_state(state: &str) -> bool {
 pub enum Step {
     /// Write this line to the virtual panel's UART.
     Send(String),
+    /// Type this line and Enter on the serial console.
+    Console(String),
     /// Pause the script (output keeps flowing).
     Sleep(Duration),
     /// Pause the script until the firmware prints a matching line.
@@ -99,9 +107,11 @@ pub fn parse(line: &str) -> Result<Option<Step>, String> {
         }))),
         "send" if rest.is_empty() => Err("`send` needs the text to send".into()),
         "send" => Ok(Some(Step::Send(rest.to_owned()))),
+        "console" if rest.is_empty() => Err("`console` needs the text to type".into()),
+        "console" => Ok(Some(Step::Console(rest.to_owned()))),
         _ => Err(format!(
-            "cannot read {line:?}: expected +BUTTON, -BUTTON, sleep MS, wait TEXT, send TEXT \
-             or # comment"
+            "cannot read {line:?}: expected +BUTTON, -BUTTON, sleep MS, wait TEXT, send TEXT, \
+             console TEXT or # comment"
         )),
     }
 }
@@ -191,6 +201,27 @@ mod tests {
         assert!(parse("send").is_err());
         assert!(parse("forward").is_err());
         assert!(parse("sleeps 3").is_err());
+    }
+
+    #[test]
+    fn console() {
+        assert_eq!(
+            parse("console set robot 10.0.2.2:30001"),
+            Ok(Some(Step::Console("set robot 10.0.2.2:30001".into())))
+        );
+        assert_eq!(
+            parse("  console   help \r"),
+            Ok(Some(Step::Console("help".into())))
+        );
+        let err = parse("console").unwrap_err();
+        assert!(err.contains("`console` needs the text to type"), "{err}");
+        assert!(parse("console   ").is_err());
+        assert!(parse("consoles help").is_err());
+        // Waiting for the console's output is an ordinary text wait.
+        assert_eq!(
+            parse("wait console: saved"),
+            Ok(Some(Step::Wait(Pattern::Text("console: saved".into()))))
+        );
     }
 
     #[test]

@@ -2,9 +2,9 @@
 //! the firmware fails, time runs out or the user interrupts.
 //!
 //! Everything that can happen arrives as an [`Event`] on one channel (reader threads for
-//! x30-qemu's standard input and QEMU's two output streams, the Ctrl-C handler), and one
-//! loop on the main thread decides. QEMU's exit is polled rather than waited for in a
-//! thread, because the same `Child` must also be killable from the loop.
+//! x30-qemu's standard input, QEMU's two output streams and the serial console, the Ctrl-C
+//! handler), and one loop on the main thread decides. QEMU's exit is polled rather than
+//! waited for in a thread, because the same `Child` must also be killable from the loop.
 
 use std::collections::{HashMap, VecDeque};
 use std::io::{BufRead, BufReader, Read, Write};
@@ -35,7 +35,11 @@ pub enum Event {
     InputEnd,
     /// A line QEMU printed (the firmware's logs, UART0 output, QEMU's own messages).
     Output(String),
-    /// One of QEMU's output streams ended.
+    /// QEMU connected the serial console: one more output stream to see to its end.
+    ConsoleOpen,
+    /// A line the serial console printed.
+    Console(String),
+    /// One of QEMU's output streams (or the console) ended.
     OutputEnd,
     /// Ctrl-C.
     Interrupt,
@@ -107,6 +111,7 @@ pub struct Session {
     child: Child,
     events: Receiver<Event>,
     to_uart: Option<Sender<String>>,
+    to_console: Option<Sender<String>>,
     options: Options,
     start: Instant,
     steps: VecDeque<Step>,
@@ -122,11 +127,13 @@ pub struct Session {
 impl Session {
     /// Takes over a freshly spawned QEMU (all three streams piped): starts the threads that
     /// read its output and write its input. `events` must be the receiving end of `sender`,
-    /// whose other clones feed x30-qemu's own input and Ctrl-C.
+    /// whose other clones feed x30-qemu's own input, the console's lines and Ctrl-C;
+    /// `console` takes the lines typed on the serial console.
     pub fn new(
         mut child: Child,
         sender: &Sender<Event>,
         events: Receiver<Event>,
+        console: Sender<String>,
         options: Options,
     ) -> Self {
         let mut open_outputs = 0;
@@ -159,6 +166,7 @@ impl Session {
             child,
             events,
             to_uart,
+            to_console: Some(console),
             options,
             start: Instant::now(),
             steps: VecDeque::new(),
@@ -182,6 +190,7 @@ impl Session {
         // Reaps QEMU in every case, so no zombie is left even for an instant longer.
         let _ = self.child.wait();
         self.to_uart = None;
+        self.to_console = None;
         self.drain();
         let outcome = match (self.panic.take(), outcome) {
             // A panic explains QEMU's exit, a wait in vain or a timeout better than they do.
@@ -271,6 +280,13 @@ impl Session {
                         let _ = tx.send(line);
                     }
                 }
+                Step::Console(text) => {
+                    self.note(&format!("console> {text}"));
+                    if let Some(tx) = &self.to_console {
+                        // Typed lines wait for QEMU to connect; gone only when QEMU is.
+                        let _ = tx.send(text);
+                    }
+                }
                 Step::Sleep(time) => {
                     self.blocked = Some(Blocked::Sleep(now + time));
                     return None;
@@ -303,24 +319,32 @@ impl Session {
                 }
             },
             Event::InputEnd => self.input_done = true,
+            Event::ConsoleOpen => self.open_outputs += 1,
             Event::Output(line) => self.output(line),
+            Event::Console(line) => self.show(&format!("console: {line}")),
             Event::OutputEnd => self.open_outputs = self.open_outputs.saturating_sub(1),
             Event::Interrupt => {}
         }
     }
 
+    /// A line of QEMU's output: the firmware's log, which reports LEDs and panics.
     fn output(&mut self, line: String) {
-        {
-            let mut stdout = std::io::stdout().lock();
-            // A closed stdout (a pager quit) must not end the session; QEMU keeps running.
-            let _ = writeln!(stdout, "{line}");
-            let _ = stdout.flush();
-        }
         if let Some(led) = script::led_in(&line) {
             self.leds.insert(led.name, led.state);
         }
         if self.panic.is_none() && script::is_panic(&line) {
             self.panic = Some((line.clone(), Instant::now() + PANIC_EXIT_WAIT));
+        }
+        self.show(&line);
+    }
+
+    /// Prints a line on standard output and ends a wait for it.
+    fn show(&mut self, line: &str) {
+        {
+            let mut stdout = std::io::stdout().lock();
+            // A closed stdout (a pager quit) must not end the session; QEMU keeps running.
+            let _ = writeln!(stdout, "{line}");
+            let _ = stdout.flush();
         }
         let matched = match &self.blocked {
             Some(Blocked::Wait(Pattern::Led(led), _)) => self.led_is(led),
@@ -342,8 +366,12 @@ impl Session {
         while self.open_outputs > 0 {
             let left = until.saturating_duration_since(Instant::now());
             match self.events.recv_timeout(left) {
-                Ok(Event::Output(line)) => self.output(line),
-                Ok(Event::OutputEnd) => self.open_outputs -= 1,
+                Ok(
+                    event @ (Event::Output(_)
+                    | Event::Console(_)
+                    | Event::ConsoleOpen
+                    | Event::OutputEnd),
+                ) => self.handle(event),
                 Ok(_) => {}
                 Err(_) => break,
             }
@@ -365,28 +393,33 @@ impl Session {
     }
 }
 
-/// Forwards each line of `stream` as an [`Event::Output`], then [`Event::OutputEnd`].
+/// Forwards each line of `stream` as an [`Event::Output`], then [`Event::OutputEnd`], from a
+/// thread of its own.
+fn spawn_reader(stream: impl Read + Send + 'static, events: Sender<Event>) {
+    thread::spawn(move || forward_lines(stream, &events, Event::Output));
+}
+
+/// Sends each line of `stream` as `wrap(line)`, without its line end, then
+/// [`Event::OutputEnd`]; a last line without a line end is sent at the end of the stream.
 /// Bytes that are not UTF-8 are replaced rather than ending the stream: a garbled log line
 /// must not hide the ones after it.
-fn spawn_reader(stream: impl Read + Send + 'static, events: Sender<Event>) {
-    thread::spawn(move || {
-        let mut reader = BufReader::new(stream);
-        let mut line = Vec::new();
-        loop {
-            line.clear();
-            match reader.read_until(b'\n', &mut line) {
-                Ok(0) | Err(_) => break,
-                Ok(_) => {
-                    let text = String::from_utf8_lossy(&line);
-                    let text = text.trim_end_matches(['\n', '\r']).to_owned();
-                    if events.send(Event::Output(text)).is_err() {
-                        return;
-                    }
+pub fn forward_lines(stream: impl Read, events: &Sender<Event>, wrap: fn(String) -> Event) {
+    let mut reader = BufReader::new(stream);
+    let mut line = Vec::new();
+    loop {
+        line.clear();
+        match reader.read_until(b'\n', &mut line) {
+            Ok(0) | Err(_) => break,
+            Ok(_) => {
+                let text = String::from_utf8_lossy(&line);
+                let text = text.trim_end_matches(['\n', '\r']).to_owned();
+                if events.send(wrap(text)).is_err() {
+                    return;
                 }
             }
         }
-        let _ = events.send(Event::OutputEnd);
-    });
+    }
+    let _ = events.send(Event::OutputEnd);
 }
 
 /// Forwards each line of x30-qemu's standard input as an [`Event::Input`], then

@@ -4,6 +4,7 @@
 
 mod common;
 
+use std::path::Path;
 use std::time::Duration;
 
 use common::*;
@@ -60,15 +61,118 @@ fn uart(stdout: &str) -> Vec<(u64, String)> {
         .collect()
 }
 
+/// The arguments the fake was started with, from its second line.
+fn fake_args(stdout: &str) -> &str {
+    stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("fake-qemu args "))
+        .unwrap_or_else(|| panic!("no args line in\n{stdout}"))
+}
+
+/// A fresh folder for one test's files.
+fn folder() -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix("x30-qemu-cli-")
+        .tempdir()
+        .expect("temporary folder")
+}
+
 #[test]
-fn boots_qemu_with_the_board_the_robot_and_the_firmware() {
-    let run = run("wait led link on", &["--grace-ms", "0"]);
-    run.expect_code(0).stdout_has(&format!(
-        "fake-qemu args -M mps2-an386 -nographic -monitor none -serial stdio \
-         -semihosting-config enable=on,target=native,arg=x30-panel,arg=10.0.2.2:30123 \
-         -nic user,model=lan9118 -kernel {FAKE}"
-    ));
+fn boots_qemu_with_the_board_the_robot_the_console_the_settings_and_the_firmware() {
+    let dir = folder();
+    let settings = dir.path().join("saved.bin");
+    let settings_arg = settings.to_str().expect("UTF-8 path");
+    let run = run(
+        "wait led link on",
+        &["--grace-ms", "0", "--settings", settings_arg],
+    );
+    run.expect_code(0);
+    let args = fake_args(&run.stdout);
+    let (before, after) = args
+        .split_once(" -chardev socket,id=console,path=")
+        .unwrap_or_else(|| panic!("no console chardev\n{run}"));
+    assert_eq!(before, "-M mps2-an386 -nographic -monitor none", "{run}");
+    let (socket, rest) = after.split_once(' ').expect("more arguments");
+    assert!(socket.ends_with("/console.sock"), "{run}");
+    assert_eq!(
+        rest,
+        format!(
+            "-serial stdio -serial chardev:console -semihosting-config \
+             enable=on,target=native,arg=x30-panel,arg=10.0.2.2:30123,arg=settings={settings_arg} \
+             -nic user,model=lan9118 -kernel {FAKE}"
+        ),
+        "{run}"
+    );
+    // A named settings file is created, empty (a blank flash), and outlives the run.
+    assert_eq!(std::fs::metadata(&settings).map(|m| m.len()).ok(), Some(0));
+    // The run's private folder, with the console's socket, does not.
+    let socket = Path::new(socket);
+    assert!(!socket.exists(), "{run}");
+    assert!(!socket.parent().expect("folder").exists(), "{run}");
     assert!(process_gone(fake_pid(&run.stdout)), "QEMU left running");
+}
+
+#[test]
+fn without_settings_each_run_gets_a_fresh_file_removed_at_exit() {
+    let first = run("wait led link on", &["--grace-ms", "0"]);
+    let second = run("wait led link on", &["--grace-ms", "0"]);
+    let settings = |run: &Finished| {
+        let args = fake_args(&run.stdout);
+        let (_, after) = args
+            .split_once(",arg=settings=")
+            .unwrap_or_else(|| panic!("no settings argument\n{run}"));
+        after.split(' ').next().expect("a path").to_owned()
+    };
+    let (a, b) = (
+        settings(first.expect_code(0)),
+        settings(second.expect_code(0)),
+    );
+    assert_ne!(a, b);
+    for path in [a, b] {
+        let path = Path::new(&path);
+        assert!(
+            path.is_absolute() && path.ends_with("settings.bin"),
+            "{path:?}"
+        );
+        assert!(!path.exists(), "{path:?} left behind");
+        assert!(!path.parent().expect("folder").exists(), "{path:?}");
+    }
+}
+
+#[test]
+fn a_settings_path_the_firmware_cannot_take_is_refused() {
+    let dir = folder();
+    let spaced = dir.path().join("my settings.bin");
+    let run = start(&["--settings", spaced.to_str().expect("UTF-8")]).finish(LIMIT);
+    run.expect_code(2).stderr_has("contains whitespace");
+    assert!(!spaced.exists());
+    assert!(run.stdout.is_empty(), "{run}");
+    start(&["--settings", "/nonexistent/settings.bin"])
+        .finish(LIMIT)
+        .expect_code(2)
+        .stderr_has("--settings /nonexistent/settings.bin: cannot open or create it");
+}
+
+#[test]
+fn console_lines_are_typed_in_order_with_the_script() {
+    // The fake never connects the console: the line waits, and the run still ends cleanly.
+    let run = run(
+        "wait led link on\nconsole set robot 10.0.2.2:30001\n+stop\n-stop",
+        &["--grace-ms", "300"],
+    );
+    run.expect_code(0)
+        .stderr_has("console> set robot 10.0.2.2:30001");
+    let lines: Vec<String> = uart(&run.stdout).into_iter().map(|(_, l)| l).collect();
+    assert_eq!(lines, ["+stop", "-stop"], "{run}");
+    let err = run_err("console\n");
+    err.expect_code(1)
+        .stderr_has("`console` needs the text to type")
+        .stderr_has("1 invalid input line(s)");
+}
+
+/// x30-qemu on the fake QEMU with `script`, which has an invalid line.
+fn run_err(script: &str) -> Finished {
+    run(script, &["--grace-ms", "100"])
 }
 
 #[test]
@@ -209,11 +313,21 @@ fn qemu_dies_with_x30_qemu_even_when_it_is_killed() {
     let pid = fake_pid(&running.stdout.all().join("\n"));
     signal::kill(Pid::from_raw(running.pid() as i32), Signal::SIGKILL).expect("signal");
     let run = running.wait(LIMIT);
+    // A killed x30-qemu cannot remove its folder; the test does, not to litter.
+    if let Some(folder) = run_folder(&run.stdout) {
+        let _ = std::fs::remove_dir_all(folder);
+    }
     assert_eq!(run.code, None, "{run}");
     assert!(
         wait_gone(pid, Duration::from_secs(5)),
         "QEMU outlived x30-qemu"
     );
+}
+
+/// The run's private folder, where the console's socket is, from the fake's arguments.
+fn run_folder(stdout: &str) -> Option<&Path> {
+    let (_, after) = fake_args(stdout).split_once("socket,id=console,path=")?;
+    Path::new(after.split(' ').next()?).parent()
 }
 
 #[test]

@@ -1,5 +1,6 @@
 //! End to end: the QEMU firmware (mps2-an386) booted by x30-qemu, connected over QEMU's user
-//! network to an x30-sim running in this process, driven through the virtual panel's UART.
+//! network to an x30-sim running in this process, driven through the virtual panel's UART
+//! and its serial console.
 //!
 //! The firmware is built once (`x30-qemu --build-only`, or taken from `X30_QEMU_FIRMWARE`)
 //! and booted afresh for each test.
@@ -13,7 +14,8 @@ use std::thread::sleep;
 use std::time::{Duration, Instant};
 
 use common::*;
-use x30_panel::proto::codes::{ErrorStatus, MotionState, NavOutcome};
+use x30_panel::proto::codes::{ErrorStatus, MotionState, NavOutcome, PointInfo};
+use x30_panel::proto::message::Request;
 use x30_sim::Simulator;
 
 /// The Type 2 requests logged since `since` (simulator seconds): (time, Command).
@@ -418,6 +420,137 @@ fn stop_during_a_navigation_task_sends_1004_and_zero_velocity() {
     assert_eq!(
         sim.snapshot().last_task.expect("ended").status,
         ErrorStatus::TaskCancelled
+    );
+    finish(panel);
+}
+
+#[test]
+fn the_console_answers_on_its_own_uart() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+    let from = panel.stdout.len();
+    panel.send("console help");
+    // The typed command comes back after the prompt, as one line, then the answer.
+    let (echo, _) = panel.expect_stdout(from, REACTION, "the echoed command", |l| {
+        l == "console: x30> help"
+    });
+    panel.expect_stdout(echo, REACTION, "`save` in the help", |l| {
+        l.starts_with("console: save ")
+    });
+    // The panel's own lines stay apart from the console's.
+    assert!(
+        panel
+            .stdout
+            .all()
+            .iter()
+            .any(|l| l.starts_with("console: x30-panel ") && l.contains("`help`")),
+        "no console greeting\n{}",
+        panel.stdout.all().join("\n")
+    );
+    finish(panel);
+}
+
+#[test]
+fn a_robot_saved_on_the_console_is_used_at_once_and_after_a_restart() {
+    let Some(turn) = turn() else { return };
+    let first = simulator();
+    let second = simulator();
+    let dir = tempfile::Builder::new()
+        .prefix("x30-qemu-e2e-")
+        .tempdir()
+        .expect("temporary folder");
+    let file = dir.path().join("settings.bin");
+    let settings = ["--settings", file.to_str().expect("UTF-8 path")];
+
+    let mut panel = boot_with(&turn, &first, SESSION_LIMIT, &settings);
+    let from = panel.stdout.len();
+    panel.send(&format!(
+        "console set robot 10.0.2.2:{}",
+        second.addr().port()
+    ));
+    panel.send("console save");
+    panel.expect_stdout(from, REACTION, "`saved robot in`", |l| {
+        l.starts_with("console: saved robot in ")
+    });
+    assert!(
+        eventually(REACTION, || sim_polled(&second)),
+        "the panel did not move to the saved robot\n{}",
+        log_text(&second)
+    );
+    finish(panel);
+    // The flash is all there, saved or erased.
+    assert_eq!(std::fs::metadata(&file).map(|m| m.len()).ok(), Some(65536));
+
+    // The same file, and the first robot again on the command line: the saved one wins.
+    let restarted = second.elapsed().as_secs_f64();
+    let before = first.requests().len();
+    let panel = boot_with(&turn, &first, SESSION_LIMIT, &settings);
+    assert!(
+        eventually(REACTION, || second
+            .requests()
+            .iter()
+            .any(|e| e.t > restarted && e.message_type == Some(1002))),
+        "no polling of the saved robot after the restart\n{}",
+        log_text(&second)
+    );
+    finish(panel);
+    assert_eq!(
+        first.requests().len(),
+        before,
+        "the command line's robot was dialled after the restart\n{}",
+        log_text(&first)
+    );
+}
+
+/// Whether `sim` has been polled for status (1002) at all.
+fn sim_polled(sim: &Simulator) -> bool {
+    sim.requests().iter().any(|e| e.message_type == Some(1002))
+}
+
+#[test]
+fn dock_here_then_dock_sends_a_1003_to_the_robots_pose() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    sim.robot(|r| {
+        r.set_pose(x30_sim::Pose {
+            x: 3.5,
+            y: -1.25,
+            z: 0.0,
+            yaw: 0.75,
+        })
+    });
+    let mut panel = boot(&turn, &sim);
+    let from = panel.stdout.len();
+    panel.send("console dock here 2 5");
+    panel.expect_stdout(from, REACTION, "`saved dock in`", |l| {
+        l.starts_with("console: saved dock in ")
+    });
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+dock");
+    panel.send("-dock");
+    let task = |sim: &Simulator| {
+        sim.requests()
+            .into_iter()
+            .filter(|e| e.t >= pressed)
+            .find_map(|e| match e.request {
+                Some(Request::NavTask(task)) => task.points.first().copied(),
+                _ => None,
+            })
+    };
+    assert!(
+        eventually(REACTION, || task(&sim).is_some()),
+        "no 1003 after dock\n{}",
+        log_text(&sim)
+    );
+    let point = task(&sim).expect("a 1003");
+    assert_eq!(
+        (point.value, point.map_id, point.point_info),
+        (5, 2, PointInfo::Charging)
+    );
+    assert_eq!(
+        (point.pos_x, point.pos_y, point.pos_z, point.angle_yaw),
+        (3.5, -1.25, 0.0, 0.75)
     );
     finish(panel);
 }

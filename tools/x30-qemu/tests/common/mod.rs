@@ -375,10 +375,16 @@ pub fn boot(turn: &Turn, sim: &Simulator) -> Running {
 
 /// [`boot`] for a session of up to `session`.
 pub fn boot_for(turn: &Turn, sim: &Simulator, session: Duration) -> Running {
+    boot_with(turn, sim, session, &[])
+}
+
+/// [`boot_for`] with more arguments for x30-qemu (such as `--settings FILE`); returns once
+/// the link LED is on, whichever robot the panel connected to.
+pub fn boot_with(turn: &Turn, sim: &Simulator, session: Duration, extra: &[&str]) -> Running {
     let robot = sim.addr().to_string();
     let elf = turn.elf.to_string_lossy().into_owned();
     let limit = session.as_secs().to_string();
-    let panel = Running::start(&[
+    let mut args = vec![
         "--robot",
         &robot,
         "--firmware",
@@ -387,7 +393,9 @@ pub fn boot_for(turn: &Turn, sim: &Simulator, session: Duration) -> Running {
         &limit,
         "--grace-ms",
         "300",
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    let panel = Running::start(&args);
     panel.expect_stdout(0, BOOT_LIMIT, "`led link on`", |l| l == "led link on");
     panel
 }

@@ -1,0 +1,469 @@
+//! The serial console: line editing, each command's answer, and saving through the store.
+
+// The store's tests use the whole simulated chip; these only a blank one.
+#[allow(dead_code)]
+#[path = "common/sim_flash.rs"]
+mod sim_flash;
+#[path = "common/terminal.rs"]
+mod terminal;
+
+use embassy_time::{Duration, Instant};
+use sim_flash::{PAGE, SimFlash};
+use terminal::{Keyboard, Screen};
+use x30_panel::app::{Shared, Snapshot};
+use x30_panel::config::{Cidr, Config};
+use x30_panel::console::commands::{Action, execute};
+use x30_panel::console::line::{Input, LINE_MAX, LineEditor};
+use x30_panel::console::{self, Answer, Reboot};
+use x30_panel::panel::indicators::LinkState;
+use x30_panel::panel::monitor::Stamped;
+use x30_panel::panel::{Busy, Button, ButtonEvent};
+use x30_panel::proto::codes::MotionState;
+use x30_panel::proto::message::RobotStatus;
+use x30_panel::settings::store::{BUF_LEN, Store};
+use x30_panel::settings::{self, Key, LoadProblem, Settings};
+
+/// What the editor answers to each byte of `typed`.
+fn edit(editor: &mut LineEditor, typed: &[u8]) -> Vec<Input> {
+    typed.iter().map(|&b| editor.push(b)).collect()
+}
+
+#[test]
+fn typing_echoes_and_enter_ends_the_line() {
+    let mut e = LineEditor::new();
+    assert_eq!(edit(&mut e, b"ab"), [Input::Echo(b'a'), Input::Echo(b'b')]);
+    assert_eq!(e.push(b'\r'), Input::Line);
+    assert_eq!(e.line(), "ab");
+    // The LF of CR LF ends no second line; the next byte starts a new one.
+    assert_eq!(e.push(b'\n'), Input::Nothing);
+    assert_eq!(edit(&mut e, b"c\n"), [Input::Echo(b'c'), Input::Line]);
+    assert_eq!(e.line(), "c");
+    assert_eq!(e.push(b'\n'), Input::Line);
+    assert_eq!(e.line(), "");
+}
+
+#[test]
+fn backspace_erases_and_ctrl_c_drops_the_line() {
+    let mut e = LineEditor::new();
+    edit(&mut e, b"shox");
+    assert_eq!(e.push(0x7F), Input::Erase);
+    assert_eq!(e.push(b'w'), Input::Echo(b'w'));
+    assert_eq!(e.line(), "show");
+    assert_eq!(
+        edit(&mut e, &[0x08; 5]),
+        [
+            Input::Erase,
+            Input::Erase,
+            Input::Erase,
+            Input::Erase,
+            Input::Nothing
+        ]
+    );
+    edit(&mut e, b"reboot");
+    assert_eq!(e.push(0x03), Input::Dropped);
+    assert_eq!(e.line(), "");
+    edit(&mut e, b"x");
+    assert_eq!(e.push(0x15), Input::Dropped);
+    assert_eq!(e.push(b'\r'), Input::Line);
+    assert_eq!(e.line(), "");
+}
+
+#[test]
+fn arrow_keys_and_binary_noise_are_not_typed() {
+    let mut e = LineEditor::new();
+    // Up arrow, F5, a lone ESC followed by a letter, UTF-8, a NUL.
+    let noise = b"\x1b[A\x1b[15~\x1bOP\x1bx\xc3\xa9\x00";
+    assert!(edit(&mut e, noise).iter().all(|i| *i == Input::Nothing));
+    assert_eq!(edit(&mut e, b"ok\r").last(), Some(&Input::Line));
+    assert_eq!(e.line(), "ok");
+}
+
+#[test]
+fn a_full_line_rings_the_bell() {
+    let mut e = LineEditor::new();
+    let typed = vec![b'a'; LINE_MAX];
+    assert!(edit(&mut e, &typed).iter().all(|i| *i == Input::Echo(b'a')));
+    assert_eq!(e.push(b'b'), Input::Bell);
+    assert_eq!(e.line().len(), LINE_MAX);
+}
+
+/// Runs `line` on `settings` with `snapshot`; the action and the answer.
+fn run_line(line: &str, settings: &mut Settings, snapshot: Option<&Snapshot>) -> (Action, String) {
+    run_line_at(Instant::now(), line, settings, snapshot)
+}
+
+/// [`run_line`] at `now`.
+fn run_line_at(
+    now: Instant,
+    line: &str,
+    settings: &mut Settings,
+    snapshot: Option<&Snapshot>,
+) -> (Action, String) {
+    let mut answer = Answer::new();
+    let action = execute(line, settings, snapshot, now, &mut answer);
+    (action, answer.as_str().to_owned())
+}
+
+/// A snapshot of a connected, idle panel whose robot stands at (1.5, -2, 0.1), yaw 0.5.
+fn snapshot() -> Snapshot {
+    let status = RobotStatus {
+        motion_state: MotionState::StandingUp,
+        pos_x: 1.5,
+        pos_y: -2.0,
+        pos_z: 0.1,
+        yaw: 0.5,
+        electricity: 87,
+        ..RobotStatus::UNAVAILABLE
+    };
+    Snapshot {
+        link: LinkState::Connected,
+        robot: Config::default().robot,
+        status: Some(Stamped::new(status, Instant::now())),
+        battery: None,
+        fault: None,
+        command_failed: false,
+        busy: None,
+        board_address: Some(Cidr {
+            address: [10, 0, 2, 15],
+            prefix_len: 24,
+        }),
+        at: Instant::now(),
+    }
+}
+
+#[test]
+fn help_lists_every_command_and_key() {
+    let mut s = Settings::new(Config::default());
+    let (action, help) = run_line("help", &mut s, None);
+    assert_eq!(action, Action::Answered);
+    for command in [
+        "help",
+        "show",
+        "set KEY VALUE",
+        "unset KEY",
+        "save",
+        "status",
+        "dock here",
+        "reboot",
+    ] {
+        assert!(help.contains(command), "{command} missing from:\n{help}");
+    }
+    for key in Key::ALL {
+        assert!(help.contains(key.name()), "{key:?}");
+    }
+    let (_, one) = run_line("help speed-forward", &mut s, None);
+    assert!(
+        one.contains("m/s from 0 to 1.5") && one.contains("X30_SPEED_FORWARD"),
+        "{one}"
+    );
+}
+
+#[test]
+fn show_tells_values_and_where_they_come_from() {
+    let mut s = Settings::new(Config::default());
+    s.set(Key::Repeat, "300").unwrap();
+    s.commit();
+    s.set(Key::SpeedForward, "0.8").unwrap();
+    s.set(Key::WebPin, "9753").unwrap();
+    let (_, shown) = run_line("show", &mut s, None);
+    let lines: Vec<&str> = shown.lines().collect();
+    assert_eq!(lines.len(), Key::ALL.len(), "{shown}");
+    let line = |name: &str| {
+        *lines
+            .iter()
+            .find(|l| l.starts_with(&format!("{name} ")))
+            .unwrap()
+    };
+    assert!(
+        line("robot").contains("= 192.168.1.106:30000") && line("robot").ends_with("[default]")
+    );
+    assert!(line("repeat-ms").contains("= 300") && line("repeat-ms").ends_with("[set]"));
+    assert!(
+        line("speed-forward").contains("= 0.8")
+            && line("speed-forward").ends_with("[set, not saved]")
+    );
+    // The PIN is never printed.
+    assert!(
+        line("web-pin").contains("****") && !shown.contains("9753"),
+        "{shown}"
+    );
+    let (_, one) = run_line("show dock", &mut s, None);
+    assert_eq!(one.trim_end(), format!("{:<18} = none  [default]", "dock"));
+}
+
+#[test]
+fn set_checks_the_value_and_names_what_is_allowed() {
+    let mut s = Settings::new(Config::default());
+    let (_, ok) = run_line("set speed-forward 0.80", &mut s, None);
+    assert_eq!(
+        ok.trim_end(),
+        "speed-forward = 0.8 (not saved: `save` keeps it)"
+    );
+    let before = s.clone();
+    let (_, bad) = run_line("set speed-forward 2", &mut s, None);
+    assert_eq!(
+        bad.trim_end(),
+        "speed-forward: `2` is not valid: expected m/s from 0 to 1.5, or default (the robot's 0.5); nothing changed"
+    );
+    let (_, unknown) = run_line("set speed 1", &mut s, None);
+    assert!(unknown.contains("no setting `speed`"), "{unknown}");
+    let (_, empty) = run_line("set robot", &mut s, None);
+    assert!(empty.contains("a.b.c.d"), "{empty}");
+    assert_eq!(s, before, "refused commands change nothing");
+    // A value with spaces (lights, dock) is the rest of the line.
+    let (_, lights) = run_line("set lights 00FF00:50, FF0000:100:breathing", &mut s, None);
+    assert!(
+        lights.starts_with("lights = 00FF00:50,FF0000:100:breathing"),
+        "{lights}"
+    );
+    let (_, unset) = run_line("unset speed-forward", &mut s, None);
+    assert_eq!(unset.trim_end(), "speed-forward = default (as saved)");
+    let (_, nonsense) = run_line("frobnicate now", &mut s, None);
+    assert!(
+        nonsense.contains("unknown command `frobnicate now`"),
+        "{nonsense}"
+    );
+}
+
+#[test]
+fn save_is_refused_with_a_reason() {
+    let mut s = Settings::new(Config::default());
+    let (action, nothing) = run_line("save", &mut s, None);
+    assert_eq!(
+        (action, nothing.trim_end()),
+        (Action::Answered, "nothing changed; nothing to save")
+    );
+
+    s.set(Key::Dhcp, "0").unwrap();
+    let (action, conflict) = run_line("save", &mut s, None);
+    assert_eq!(action, Action::Answered);
+    assert!(conflict.contains("dhcp is 0 but ip is none"), "{conflict}");
+    s.set(Key::Ip, "10.0.0.9/24").unwrap();
+
+    for busy in [Busy::MotionHeld, Busy::TaskRunning, Busy::StopPending] {
+        let snapshot = Snapshot {
+            busy: Some(busy),
+            ..snapshot()
+        };
+        let (action, refused) = run_line("save", &mut s, Some(&snapshot));
+        assert_eq!(action, Action::Answered, "{busy:?}");
+        assert!(
+            refused.starts_with("not saved: ") && refused.contains(busy.description()),
+            "{refused}"
+        );
+    }
+    assert_eq!(run_line("save", &mut s, Some(&snapshot())).0, Action::Save);
+}
+
+#[test]
+fn status_tells_the_connection_battery_motion_and_fault() {
+    let mut s = Settings::new(Config::default());
+    let (_, status) = run_line("status", &mut s, Some(&snapshot()));
+    assert!(
+        status.contains("192.168.1.106:30000, connected and answering"),
+        "{status}"
+    );
+    assert!(status.contains("board      10.0.2.15/24"), "{status}");
+    assert!(status.contains("battery    87 %"), "{status}");
+    assert!(status.contains("motion     standing up"), "{status}");
+    assert!(status.contains("fault      none"), "{status}");
+    let failed = Snapshot {
+        command_failed: true,
+        link: LinkState::NotAnswering,
+        ..snapshot()
+    };
+    let (_, status) = run_line("status", &mut s, Some(&failed));
+    assert!(
+        status.contains("not answering") && status.contains("the last command failed"),
+        "{status}"
+    );
+    let (_, starting) = run_line("status", &mut s, None);
+    assert!(starting.contains("starting"), "{starting}");
+}
+
+#[test]
+fn dock_here_takes_the_robots_pose() {
+    let mut s = Settings::new(Config::default());
+    let (action, answer) = run_line("dock here", &mut s, Some(&snapshot()));
+    assert_eq!(action, Action::Save, "{answer}");
+    let dock = s.edited().dock.unwrap();
+    assert_eq!((dock.value, dock.map_id), (1, 1));
+    assert_eq!(
+        (dock.pos_x, dock.pos_y, dock.pos_z, dock.angle_yaw),
+        (1.5, -2.0, 0.1, 0.5)
+    );
+    assert!(answer.starts_with("dock = 1,1,1.5,-2,0.1,0.5"), "{answer}");
+
+    // MAP and POINT, then the previous dock's numbers as defaults.
+    run_line("dock here 4 7", &mut s, Some(&snapshot()));
+    assert_eq!(s.edited().dock.map(|d| (d.map_id, d.value)), Some((4, 7)));
+    run_line("dock here", &mut s, Some(&snapshot()));
+    assert_eq!(s.edited().dock.map(|d| (d.map_id, d.value)), Some((4, 7)));
+
+    let before = s.clone();
+    let later = Instant::now() + Duration::from_millis(2100);
+    let (action, stale) = run_line_at(later, "dock here", &mut s, Some(&snapshot()));
+    assert_eq!(action, Action::Answered);
+    assert!(stale.contains("no fresh status"), "{stale}");
+    for (line, snapshot) in [
+        ("dock here", None),
+        ("dock here x", Some(&snapshot())),
+        ("dock here 1 2 3", Some(&snapshot())),
+        ("dock there", Some(&snapshot())),
+    ] {
+        let (action, answer) = run_line(line, &mut s, snapshot);
+        assert_eq!(action, Action::Answered, "{line}: {answer}");
+    }
+    assert_eq!(s, before);
+}
+
+#[test]
+fn reboot_warns_of_unsaved_changes() {
+    let mut s = Settings::new(Config::default());
+    assert_eq!(
+        run_line("reboot", &mut s, None),
+        (Action::Reboot, "rebooting\n".to_owned())
+    );
+    s.set(Key::Repeat, "300").unwrap();
+    let (_, answer) = run_line("reboot", &mut s, None);
+    assert!(answer.contains("changes not saved are dropped"));
+}
+
+/// Settings flash for the tests: two 32 KiB pages.
+fn flash() -> SimFlash {
+    SimFlash::new(2)
+}
+
+/// Types `input` on a console over `flash` until it goes quiet or reboots; the screen, and
+/// whether it asked to reboot.
+async fn session(
+    flash: &SimFlash,
+    shared: &Shared,
+    problem: Option<LoadProblem>,
+    input: &str,
+) -> (String, bool) {
+    let mut store = Store::new(flash.clone(), 0..2 * PAGE as u32);
+    let (mut settings, _) = settings::load(&mut store, Config::default()).await;
+    let (keyboard, keys) = Keyboard::new();
+    keys.send(input.as_bytes().to_vec()).unwrap();
+    let screen = Screen::default();
+    let console = console::run(
+        keyboard,
+        screen.clone(),
+        &mut store,
+        &mut settings,
+        problem,
+        shared,
+    );
+    let rebooted = tokio::time::timeout(std::time::Duration::from_millis(300), console).await;
+    (screen.text(), rebooted == Ok(Reboot))
+}
+
+/// The settings saved on `flash`.
+async fn saved(flash: &SimFlash) -> Settings {
+    let mut store = Store::new(flash.clone(), 0..2 * PAGE as u32);
+    let mut buf = [0u8; BUF_LEN];
+    let blob = store
+        .load(&mut buf)
+        .await
+        .unwrap()
+        .expect("something saved");
+    let (settings, problem) = Settings::parse(Config::default(), blob);
+    assert_eq!(problem, None);
+    settings
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_session_sets_and_saves_and_the_next_start_reads_it() {
+    let flash = flash();
+    let shared = Shared::new();
+    let (screen, rebooted) = session(
+        &flash,
+        &shared,
+        None,
+        "set speed-turn-left 0.2\r\nsave\rreboot\r",
+    )
+    .await;
+    assert!(rebooted, "{screen}");
+    assert!(screen.starts_with("\r\nx30-panel "), "{screen:?}");
+    assert!(
+        screen.contains("x30> set speed-turn-left 0.2\r\nspeed-turn-left = 0.2 (not saved"),
+        "{screen:?}"
+    );
+    assert!(
+        screen.contains("\r\nsaved speed-turn-left in "),
+        "{screen:?}"
+    );
+    assert!(
+        screen.contains("x30> reboot\r\nrebooting\r\n"),
+        "{screen:?}"
+    );
+    // Every line ends with CR LF, as a terminal needs.
+    assert!(!screen.replace("\r\n", "").contains('\n'), "{screen:?}");
+    let again = saved(&flash).await;
+    assert_eq!(again.config().speeds, {
+        let mut c = Config::default();
+        Key::SpeedTurnLeft.apply(&mut c, "0.2").unwrap();
+        c.speeds
+    });
+    let (screen, _) = session(&flash, &shared, None, "show speed-turn-left\r").await;
+    assert!(
+        screen.contains("speed-turn-left    = 0.2  [set]"),
+        "{screen:?}"
+    );
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn saving_reports_what_needs_a_reboot() {
+    let flash = flash();
+    let shared = Shared::new();
+    let (screen, _) = session(
+        &flash,
+        &shared,
+        None,
+        "set dhcp 0\rset ip 10.0.0.9/24\rset debounce-ms 20\rsave\r",
+    )
+    .await;
+    assert!(
+        screen.contains("after `reboot`: dhcp ip debounce-ms"),
+        "{screen:?}"
+    );
+    assert!(!saved(&flash).await.config().dhcp);
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_button_event_not_yet_taken_in_keeps_the_flash_untouched() {
+    let flash = flash();
+    let shared = Shared::new();
+    shared
+        .buttons
+        .try_send(ButtonEvent {
+            button: Button::Estop,
+            pressed: true,
+            at: Instant::now(),
+        })
+        .unwrap();
+    let (screen, _) = session(&flash, &shared, None, "set repeat-ms 300\rsave\r").await;
+    assert!(
+        screen.contains("not saved: a stop is going out"),
+        "{screen:?}"
+    );
+    assert_eq!(flash.log(), [], "no write, no erase");
+    assert!(
+        flash.snapshot().iter().all(|&b| b == 0xFF),
+        "nothing written"
+    );
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_lost_store_is_told_in_the_greeting() {
+    let shared = Shared::new();
+    for (problem, words) in [
+        (LoadProblem::Unreadable, "damaged or not this panel's"),
+        (LoadProblem::NotSettings, "not this firmware's"),
+        (LoadProblem::UnknownKeys(2), "2 saved settings are unknown"),
+    ] {
+        let (screen, _) = session(&flash(), &shared, Some(problem), "").await;
+        assert!(screen.contains(words), "{problem:?}: {screen:?}");
+    }
+}

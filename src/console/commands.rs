@@ -1,0 +1,353 @@
+//! The console's commands: what each line does, and the answer a person reads.
+
+use core::fmt::Write as _;
+
+use embassy_time::{Duration, Instant};
+
+use super::{Answer, names};
+use crate::app::Snapshot;
+use crate::panel::indicators::LinkState;
+use crate::settings::text::NONE;
+use crate::settings::{Key, LoadProblem, Settings, write_f32};
+
+/// How old the robot's status may be for `dock here` to take its pose.
+pub const POSE_MAX_AGE: Duration = Duration::from_secs(2);
+
+/// What the console must do after a command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Action {
+    /// Nothing more: the answer is written.
+    Answered,
+    /// Save the edited settings (checked: something changed, nothing conflicts).
+    Save,
+    /// Restart the board.
+    Reboot,
+}
+
+/// The commands and what they do, for `help`.
+const HELP: &str = "\
+help [KEY]               this list, or what KEY allows
+show [KEY]               every setting (or one), its value, and whether it is the default
+set KEY VALUE            change a setting (checked; `save` keeps it)
+unset KEY                back to the default (`save` keeps it)
+save                     keep the changes in flash and use them (not while moving)
+status                   connection, robot, battery, motion state, last fault
+dock here [MAP [POINT]]  the robot's pose now is the dock point, saved at once
+reboot                   restart the panel (network and button settings apply then)
+";
+
+/// Runs one command line, writing its answer to `answer`.
+pub fn execute(
+    line: &str,
+    settings: &mut Settings,
+    snapshot: Option<&Snapshot>,
+    now: Instant,
+    answer: &mut Answer,
+) -> Action {
+    let line = line.trim();
+    let (command, rest) = line.split_once(' ').unwrap_or((line, ""));
+    let rest = rest.trim();
+    match command {
+        "" => Action::Answered,
+        "help" | "?" => help(rest, answer),
+        "show" => show(rest, settings, answer),
+        "set" => set(rest, settings, answer),
+        "unset" => unset(rest, settings, answer),
+        "save" if rest.is_empty() => save(settings, snapshot, answer),
+        "status" if rest.is_empty() => status(settings, snapshot, now, answer),
+        "dock" => dock(rest, settings, snapshot, now, answer),
+        "reboot" if rest.is_empty() => {
+            if !settings.unsaved().is_empty() {
+                let _ = writeln!(answer, "changes not saved are dropped");
+            }
+            let _ = writeln!(answer, "rebooting");
+            Action::Reboot
+        }
+        _ => {
+            let _ = writeln!(
+                answer,
+                "unknown command `{line}`; `help` lists the commands"
+            );
+            Action::Answered
+        }
+    }
+}
+
+/// Tells what went wrong loading the saved settings.
+pub fn tell_load_problem(problem: LoadProblem, answer: &mut Answer) {
+    let _ = match problem {
+        LoadProblem::Unreadable => writeln!(
+            answer,
+            "the settings store in flash is damaged or not this panel's: every setting has \
+             its default (the fault LED blinks); `save` writes a new store"
+        ),
+        LoadProblem::NotSettings => writeln!(
+            answer,
+            "the saved settings are not this firmware's: every setting has its default (the \
+             fault LED blinks); `save` writes new ones"
+        ),
+        LoadProblem::InvalidValues(keys) => {
+            let _ = write!(answer, "saved values not valid any more, defaults used: ");
+            names(keys, answer);
+            writeln!(answer)
+        }
+        LoadProblem::UnknownKeys(count) => writeln!(
+            answer,
+            "{count} saved settings are unknown to this firmware (a newer one saved them); \
+             they are ignored"
+        ),
+    };
+}
+
+/// `help [KEY]`.
+fn help(rest: &str, answer: &mut Answer) -> Action {
+    if rest.is_empty() {
+        let _ = answer.push_str(HELP);
+        let _ = writeln!(answer, "keys (`show` lists their values):");
+        for (i, key) in Key::ALL.iter().enumerate() {
+            let gap = if i % 4 == 0 { "  " } else { ", " };
+            let end = if i % 4 == 3 { "\n" } else { "" };
+            let _ = write!(answer, "{gap}{}{end}", key.name());
+        }
+        let _ = writeln!(answer);
+    } else if let Some(key) = key(rest, answer) {
+        let _ = writeln!(
+            answer,
+            "{}: {} (build-time variable {})",
+            key.name(),
+            key.allowed(),
+            key.variable()
+        );
+    }
+    Action::Answered
+}
+
+/// `show [KEY]`.
+fn show(rest: &str, settings: &Settings, answer: &mut Answer) -> Action {
+    if rest.is_empty() {
+        for &key in Key::ALL {
+            show_key(key, settings, answer);
+        }
+    } else if let Some(key) = key(rest, answer) {
+        show_key(key, settings, answer);
+    }
+    Action::Answered
+}
+
+/// One line of `show`: `name = value  [default]`.
+fn show_key(key: Key, settings: &Settings, answer: &mut Answer) {
+    let _ = write!(answer, "{:<18} = ", key.name());
+    let config = settings.edited();
+    if key == Key::WebPin && config.web_pin.is_some() {
+        // The PIN guards the web page; whoever reads the console needs no copy of it.
+        let _ = answer.push_str("****");
+    } else {
+        let _ = key.write(config, answer);
+    }
+    let origin = if settings.is_overridden(key) {
+        "set"
+    } else {
+        "default"
+    };
+    let unsaved = if settings.unsaved().contains(key) {
+        ", not saved"
+    } else {
+        ""
+    };
+    let _ = writeln!(answer, "  [{origin}{unsaved}]");
+}
+
+/// `set KEY VALUE`.
+fn set(rest: &str, settings: &mut Settings, answer: &mut Answer) -> Action {
+    let (name, value) = rest.split_once(' ').unwrap_or((rest, ""));
+    let Some(key) = key(name, answer) else {
+        return Action::Answered;
+    };
+    let value = value.trim();
+    if value.is_empty() {
+        let _ = writeln!(answer, "set {} VALUE: {}", key.name(), key.allowed());
+        return Action::Answered;
+    }
+    match settings.set(key, value) {
+        Ok(()) => changed(key, settings, answer),
+        Err(_) => {
+            let _ = writeln!(
+                answer,
+                "{}: `{value}` is not valid: expected {}; nothing changed",
+                key.name(),
+                key.allowed()
+            );
+        }
+    }
+    Action::Answered
+}
+
+/// `unset KEY`.
+fn unset(rest: &str, settings: &mut Settings, answer: &mut Answer) -> Action {
+    if let Some(key) = key(rest, answer) {
+        settings.unset(key);
+        changed(key, settings, answer);
+    }
+    Action::Answered
+}
+
+/// The answer to a change: the new value, and that it is not saved yet.
+fn changed(key: Key, settings: &Settings, answer: &mut Answer) {
+    let _ = write!(answer, "{} = ", key.name());
+    let _ = key.write(settings.edited(), answer);
+    let note = if settings.unsaved().contains(key) {
+        " (not saved: `save` keeps it)"
+    } else {
+        " (as saved)"
+    };
+    let _ = writeln!(answer, "{note}");
+}
+
+/// `save`: checks what it can without the flash; the console does the rest.
+fn save(settings: &Settings, snapshot: Option<&Snapshot>, answer: &mut Answer) -> Action {
+    if settings.unsaved().is_empty() {
+        let _ = writeln!(answer, "nothing changed; nothing to save");
+        return Action::Answered;
+    }
+    if let Err(conflict) = settings.check() {
+        let _ = writeln!(answer, "not saved: {conflict}");
+        return Action::Answered;
+    }
+    if let Some(busy) = snapshot.and_then(|s| s.busy) {
+        let _ = writeln!(
+            answer,
+            "not saved: {}; save when the panel is idle",
+            busy.description()
+        );
+        return Action::Answered;
+    }
+    Action::Save
+}
+
+/// `status`.
+fn status(
+    settings: &Settings,
+    snapshot: Option<&Snapshot>,
+    now: Instant,
+    answer: &mut Answer,
+) -> Action {
+    let _ = write!(answer, "robot      ");
+    let _ = Key::Robot.write(settings.config(), answer);
+    let Some(s) = snapshot else {
+        let _ = writeln!(answer, ", the panel is starting");
+        return Action::Answered;
+    };
+    let link = match s.link {
+        LinkState::NoNetwork => "no network (no Ethernet link or no address)",
+        LinkState::Connecting => "connecting",
+        LinkState::NotAnswering => "connected, not answering",
+        LinkState::Connected => "connected and answering",
+    };
+    let _ = writeln!(answer, ", {link}");
+    let _ = write!(answer, "board      ");
+    match s.board_address {
+        Some(cidr) => {
+            let [a, b, c, d] = cidr.address;
+            let _ = writeln!(answer, "{a}.{b}.{c}.{d}/{}", cidr.prefix_len);
+        }
+        None => {
+            let _ = writeln!(answer, "no address yet");
+        }
+    }
+    let age = |at: Instant| now.saturating_duration_since(at).as_millis();
+    match (&s.status, &s.battery) {
+        (Some(status), battery) if !status.value.is_unavailable() => {
+            let level = battery.map_or(status.value.electricity, |b| b.value.battery_level);
+            let _ = writeln!(answer, "battery    {level} %");
+            let _ = writeln!(
+                answer,
+                "motion     {} ({} ms ago)",
+                status.value.motion_state,
+                age(status.at)
+            );
+        }
+        _ => {
+            let _ = writeln!(
+                answer,
+                "battery    unknown\nmotion     unknown (no status yet)"
+            );
+        }
+    }
+    let _ = write!(answer, "fault      ");
+    let _ = match (s.fault, s.command_failed) {
+        (Some(fault), _) => writeln!(answer, "{}", fault.description()),
+        (None, true) => writeln!(answer, "the last command failed"),
+        (None, false) => writeln!(answer, "none"),
+    };
+    let unsaved = settings.unsaved();
+    if !unsaved.is_empty() {
+        let _ = write!(answer, "unsaved    ");
+        names(unsaved, answer);
+        let _ = writeln!(answer);
+    }
+    Action::Answered
+}
+
+/// `dock here [MAP [POINT]]`: the robot's pose as the dock point, saved at once.
+fn dock(
+    rest: &str,
+    settings: &mut Settings,
+    snapshot: Option<&Snapshot>,
+    now: Instant,
+    answer: &mut Answer,
+) -> Action {
+    let mut words = rest.split_ascii_whitespace();
+    if words.next() != Some("here") {
+        let _ = writeln!(answer, "usage: dock here [MAP [POINT]]");
+        return Action::Answered;
+    }
+    let current = settings.edited().dock;
+    let mut number = |default: i32| match words.next() {
+        None => Some(default),
+        Some(word) => word.parse::<i32>().ok(),
+    };
+    let map = number(current.map_or(1, |p| p.map_id));
+    let point = number(current.map_or(1, |p| p.value));
+    let (Some(map), Some(point), None) = (map, point, words.next()) else {
+        let _ = writeln!(answer, "usage: dock here [MAP [POINT]] (whole numbers)");
+        return Action::Answered;
+    };
+    let status = snapshot
+        .and_then(|s| s.status)
+        .filter(|s| now.saturating_duration_since(s.at) <= POSE_MAX_AGE)
+        .filter(|s| !s.value.is_unavailable());
+    let Some(status) = status else {
+        let _ = writeln!(
+            answer,
+            "no fresh status from the robot (none within {} s): is it connected?",
+            POSE_MAX_AGE.as_secs()
+        );
+        return Action::Answered;
+    };
+    let pose = status.value;
+    let mut text = heapless::String::<96>::new();
+    let _ = write!(text, "{point},{map}");
+    for value in [pose.pos_x, pose.pos_y, pose.pos_z, pose.yaw] {
+        let _ = text.push(',');
+        let _ = write_f32(&mut text, value);
+    }
+    if settings.set(Key::Dock, &text).is_err() {
+        let _ = writeln!(
+            answer,
+            "the robot's pose `{text}` is not a valid dock point"
+        );
+        return Action::Answered;
+    }
+    let _ = writeln!(answer, "dock = {text} (the robot's pose now)");
+    save(settings, snapshot, answer)
+}
+
+/// The key named `name`, or an answer saying there is none.
+fn key(name: &str, answer: &mut Answer) -> Option<Key> {
+    let key = Key::from_name(name);
+    if key.is_none() {
+        let shown = if name.is_empty() { NONE } else { name };
+        let _ = writeln!(answer, "no setting `{shown}`; `show` lists them");
+    }
+    key
+}
