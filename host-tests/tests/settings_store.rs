@@ -143,6 +143,38 @@ async fn many_saves_wrap_both_pages_and_load_the_last() {
 }
 
 #[tokio::test]
+async fn recycling_a_page_reads_each_item_a_few_times() {
+    let flash = SimFlash::new(FLASH_PAGES);
+    let mut s = store(&flash);
+    // Settings with one key changed: the smallest items, the most of them in a page.
+    let mut saves = 0;
+    let mut reads_per_save = Vec::new();
+    while flash.page_erases() < 2 {
+        let before = flash.reads();
+        assert_eq!(save(&mut s, &blob(saves, 12)).await, Ok(()));
+        reads_per_save.push((flash.reads() - before, s.last_save_erases()));
+        saves += 1;
+        assert!(saves < 10_000, "no page change in {saves} saves");
+    }
+    let items_per_page = saves as usize / 2;
+    let worst = reads_per_save
+        .iter()
+        .map(|&(reads, _)| reads)
+        .max()
+        .unwrap();
+    let (recycling, _) = *reads_per_save
+        .iter()
+        .find(|&&(_, erases)| erases > 0)
+        .unwrap();
+    assert!(items_per_page > 500, "{items_per_page} items per page");
+    // Looking each item up by reading the whole page would take items² reads.
+    assert!(
+        worst < 20 * items_per_page,
+        "{worst} reads for one save, {recycling} for the page change, with {items_per_page} items a page"
+    );
+}
+
+#[tokio::test]
 async fn too_large_blob_changes_nothing() {
     let flash = SimFlash::new(FLASH_PAGES);
     let mut s = store(&flash);

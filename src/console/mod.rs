@@ -182,6 +182,16 @@ async fn save<F: NorFlash>(
     let _ = write!(answer, "saved ");
     names(unsaved, answer);
     let _ = write!(answer, " in {} ms", took.as_millis());
+    // A field engineer sees what an erase costs on this board (it stalls some chips).
+    match store.last_save_erases() {
+        0 => {}
+        1 => {
+            let _ = write!(answer, " (1 page erased)");
+        }
+        n => {
+            let _ = write!(answer, " ({n} pages erased)");
+        }
+    }
     if moved {
         let _ = write!(answer, "; the panel reconnects to ");
         let _ = Key::Robot.write(settings.config(), answer);

@@ -35,14 +35,19 @@
 //!   this layout written by something else reads as a blob here, which is why the settings
 //!   blob starts with its own magic.
 //!
-//! No cache: every operation reads what it needs from flash, so the store keeps no RAM of
-//! its own beyond the flash driver and a few counters; the caller lends the buffers.
+//! The map caches one thing: where the newest item is. Without it, recycling a page looks
+//! each of its items up by reading the whole page (a thousand small items made that a
+//! million reads); with it, each look-up is one read. The store forgets that cache whenever
+//! it reads or erases pages behind the map's back (settling, loading one page on its own,
+//! wiping), so the map never trusts an address it did not see written. The caller lends the
+//! buffers.
 
 use core::ops::Range;
 
 use embedded_storage_async::nor_flash::{
     ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
 };
+use sequential_storage::cache::key_pointers::ArrayKeyPointers;
 use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage, SerializationError, Value};
 
@@ -69,8 +74,16 @@ const BLANK_CHUNK: usize = 1024;
 /// The map's one key: the store is a single value, so the key takes no bytes.
 const KEY: () = ();
 
-/// The map over the guarded flash, with no cache (all state is read back from flash).
-type Map<F> = MapStorage<(), Guarded<F>, Cache<Uncached, Uncached, Uncached, ()>>;
+/// The map over the guarded flash, caching where its one key's newest item is.
+type Map<F> = MapStorage<(), Guarded<F>, KeyCache>;
+
+/// The map's cache: the location of the newest item of the one key, nothing else.
+type KeyCache = Cache<Uncached, Uncached, ArrayKeyPointers<(), 1>, ()>;
+
+/// An empty cache.
+fn key_cache() -> KeyCache {
+    Cache::new(Uncached, Uncached, ArrayKeyPointers::new())
+}
 
 /// A settings blob in flash.
 pub struct Store<F: NorFlash> {
@@ -81,6 +94,8 @@ pub struct Store<F: NorFlash> {
     next_generation: Option<u32>,
     /// Pages erased by the last save.
     last_erases: u32,
+    /// The range, to make the map again with an empty cache.
+    range: Range<u32>,
 }
 
 impl<F: NorFlash> Store<F> {
@@ -108,8 +123,9 @@ impl<F: NorFlash> Store<F> {
                         pages: len / page_size,
                         view: None,
                         erases: 0,
+                        reads: 0,
                     };
-                    Some(MapStorage::new(flash, config, Cache::new_uncached()))
+                    Some(MapStorage::new(flash, config, key_cache()))
                 }
                 Err(_) => None,
             },
@@ -119,6 +135,18 @@ impl<F: NorFlash> Store<F> {
             map,
             next_generation: None,
             last_erases: 0,
+            range,
+        }
+    }
+
+    /// Makes the map again with an empty cache, after the store read or erased pages behind
+    /// its back.
+    fn forget_cache(&mut self) {
+        if let Some(map) = self.map.take() {
+            let (flash, _) = map.destroy();
+            self.map = MapConfig::try_new(self.range.clone())
+                .ok()
+                .map(|config| MapStorage::new(flash, config, key_cache()));
         }
     }
 
@@ -127,13 +155,12 @@ impl<F: NorFlash> Store<F> {
     /// `buf` must be at least [`BUF_LEN`] bytes. A load may erase a page: one that a power cut
     /// left in the middle of a page change.
     pub async fn load<'b>(&mut self, buf: &'b mut [u8]) -> Result<Option<&'b [u8]>, StoreError> {
-        let map = self.map.as_mut().ok_or(StoreError::BadRange)?;
         if buf.len() < BUF_LEN {
             return Err(StoreError::BufferTooSmall);
         }
         self.next_generation = None;
-        let newest = settle(map, buf).await?;
-        self.next_generation = Some(newest.map_or(0, |(_, n)| n.saturating_add(1)));
+        let newest = self.settle(buf).await?;
+        let map = self.map.as_mut().ok_or(StoreError::BadRange)?;
         let Some((page, generation)) = newest else {
             // No valid item anywhere: blank, a first save cut short, or foreign data. The
             // map tells which (a foreign range seldom passes for a map).
@@ -147,6 +174,7 @@ impl<F: NorFlash> Store<F> {
         map.flash().view = Some(page);
         let found = find_generation(map, generation, buf).await;
         map.flash().view = None;
+        self.forget_cache();
         let (start, len) = found?.ok_or(StoreError::Internal)?;
         let start = start.wrapping_sub(base);
         let blob = buf
@@ -163,20 +191,25 @@ impl<F: NorFlash> Store<F> {
     /// lost (it was unreadable anyway). Returns once the item is written and read back: a
     /// power cut after that loads `blob`.
     pub async fn save(&mut self, blob: &[u8], scratch: &mut [u8]) -> Result<(), StoreError> {
-        let map = self.map.as_mut().ok_or(StoreError::BadRange)?;
         if blob.len() > BLOB_MAX {
             return Err(StoreError::TooLarge);
         }
         if scratch.len() < BUF_LEN {
             return Err(StoreError::BufferTooSmall);
         }
-        map.flash().erases = 0;
-        let result = save_item(map, &mut self.next_generation, blob, scratch).await;
+        self.map
+            .as_mut()
+            .ok_or(StoreError::BadRange)?
+            .flash()
+            .erases = 0;
+        let result = self.save_item(blob, scratch).await;
         if result.is_err() {
             // The pages may be as a power cut would leave them: check them before the next save.
             self.next_generation = None;
         }
-        self.last_erases = map.flash().erases;
+        if let Some(map) = self.map.as_mut() {
+            self.last_erases = map.flash().erases;
+        }
         result
     }
 
@@ -185,34 +218,44 @@ impl<F: NorFlash> Store<F> {
     pub fn last_save_erases(&self) -> u32 {
         self.last_erases
     }
-}
 
-/// Writes `blob` as the newest item, numbered `*next_generation` (after checking the pages
-/// if that is unknown), erasing the range first if the map cannot take it.
-async fn save_item<F: NorFlash>(
-    map: &mut Map<F>,
-    next_generation: &mut Option<u32>,
-    blob: &[u8],
-    scratch: &mut [u8],
-) -> Result<(), StoreError> {
-    let generation = match *next_generation {
-        Some(generation) => generation,
-        None => settle(map, scratch)
-            .await?
-            .map_or(0, |(_, newest)| newest.saturating_add(1)),
-    };
-    // Even if this save fails, the item may be in flash: its number is never reused.
-    *next_generation = Some(generation.saturating_add(1));
-    let item = Item { generation, blob };
-    match map.store_item(scratch, &KEY, &item).await {
-        Err(e) if from_map(&e) == StoreError::Corrupted => {
-            // The map has already tried its own repair; only a fresh start helps.
-            warn!("settings store: flash holds no valid store; erasing it");
-            map.erase_all().await.map_err(|e| from_map(&e))?;
-            let stored = map.store_item(scratch, &KEY, &item).await;
-            stored.map_err(|e| from_map(&e))
+    /// Writes `blob` as the newest item, numbered from the pages (checked first if that is
+    /// unknown), erasing the range first if the map cannot take it.
+    async fn save_item(&mut self, blob: &[u8], scratch: &mut [u8]) -> Result<(), StoreError> {
+        let generation = match self.next_generation {
+            Some(generation) => generation,
+            None => self
+                .settle(scratch)
+                .await?
+                .map_or(0, |(_, newest)| newest.saturating_add(1)),
+        };
+        // Even if this save fails, the item may be in flash: its number is never reused.
+        self.next_generation = Some(generation.saturating_add(1));
+        let item = Item { generation, blob };
+        let map = self.map.as_mut().ok_or(StoreError::BadRange)?;
+        match map.store_item(scratch, &KEY, &item).await {
+            Err(e) if from_map(&e) == StoreError::Corrupted => {
+                // The map has already tried its own repair; only a fresh start helps.
+                warn!("settings store: flash holds no valid store; erasing it");
+                map.erase_all().await.map_err(|e| from_map(&e))?;
+                self.forget_cache();
+                let map = self.map.as_mut().ok_or(StoreError::BadRange)?;
+                let stored = map.store_item(scratch, &KEY, &item).await;
+                stored.map_err(|e| from_map(&e))
+            }
+            other => other.map_err(|e| from_map(&e)),
         }
-        other => other.map_err(|e| from_map(&e)),
+    }
+
+    /// [`settle`]s the pages, then forgets the map's cache, which the pages read on their own
+    /// and the erases have misled.
+    async fn settle(&mut self, buf: &mut [u8]) -> Result<Option<(u32, u32)>, StoreError> {
+        let map = self.map.as_mut().ok_or(StoreError::BadRange)?;
+        let newest = settle(map, buf).await;
+        self.forget_cache();
+        let newest = newest?;
+        self.next_generation = Some(newest.map_or(0, |(_, n)| n.saturating_add(1)));
+        Ok(newest)
     }
 }
 
@@ -467,7 +510,14 @@ struct Guarded<F> {
     view: Option<u32>,
     /// Pages erased since the count was last reset.
     erases: u32,
+    /// Reads, counted to yield to other tasks every [`READS_PER_YIELD`].
+    reads: u32,
 }
+
+/// Reads between two yields to the executor. A blocking driver never yields, and a page
+/// change reads the page item by item for each of its items (thousands of reads): without
+/// yields the other tasks, the buttons among them, would wait for the whole save.
+const READS_PER_YIELD: u32 = 16;
 
 impl<F: NorFlash> Guarded<F> {
     /// The first offset of `page` of the range.
@@ -516,6 +566,10 @@ impl<F: NorFlash> ReadNorFlash for Guarded<F> {
     const READ_SIZE: usize = F::READ_SIZE;
 
     async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+        self.reads = self.reads.wrapping_add(1);
+        if self.reads.is_multiple_of(READS_PER_YIELD) {
+            embassy_futures::yield_now().await;
+        }
         let Some(page) = self.view else {
             return self
                 .flash

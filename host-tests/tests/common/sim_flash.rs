@@ -114,6 +114,8 @@ struct Chip {
     violations: usize,
     /// Every page erase, whole or cut, since creation.
     page_erases: usize,
+    /// Every read, since creation.
+    reads: usize,
 }
 
 /// A handle to the simulated chip (clones share it, as a board's flash outlives a store).
@@ -132,6 +134,7 @@ impl SimFlash {
             cut_hit: None,
             violations: 0,
             page_erases: 0,
+            reads: 0,
         })))
     }
 
@@ -196,6 +199,11 @@ impl SimFlash {
     /// Page erases (whole or cut) since creation.
     pub fn page_erases(&self) -> usize {
         self.0.borrow().page_erases
+    }
+
+    /// Reads since creation.
+    pub fn reads(&self) -> usize {
+        self.0.borrow().reads
     }
 }
 
@@ -296,6 +304,7 @@ impl ReadNorFlash for SimFlash {
     const READ_SIZE: usize = 1;
 
     async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), SimError> {
+        self.0.borrow_mut().reads += 1;
         let chip = self.0.borrow();
         if !chip.powered {
             return Err(SimError::PowerOff);
