@@ -38,14 +38,16 @@ use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Instant, Timer, with_timeout};
 
 use crate::client::{ClientError, Connection, Health, RobotClock, Transport};
-use crate::config::{Cidr, Config, RobotAddress};
-use crate::panel::indicators::{Fault, LinkState, fault};
+use crate::config::{Cidr, Config, PollPeriods, RobotAddress};
+use crate::panel::indicators::{Faults, LinkState};
 use crate::panel::monitor::Stamped;
 use crate::panel::{
     Busy, ButtonEvent, ConnectionRole, ConnectionState, Indicators, NetworkState, Panel,
 };
 use crate::proto::codes::MessageType;
-use crate::proto::message::{Battery, NavResult, Request, Response, RobotStatus};
+use crate::proto::message::{
+    Battery, MotorTemperatures, NavResult, NavTaskState, Perception, Request, Response, RobotStatus,
+};
 
 /// How many button events may wait for the application.
 pub const BUTTON_QUEUE: usize = 16;
@@ -82,8 +84,18 @@ pub struct Snapshot {
     pub status: Option<Stamped<RobotStatus>>,
     /// The latest battery answer (2001), however old.
     pub battery: Option<Stamped<Battery>>,
-    /// The fault the robot reports now, if any.
-    pub fault: Option<Fault>,
+    /// The latest perception answer (2002), however old.
+    pub perception: Option<Stamped<Perception>>,
+    /// The latest motor temperatures (1008), however old.
+    pub motors: Option<Stamped<MotorTemperatures>>,
+    /// The latest navigation-task status (1007), however old.
+    pub nav: Option<Stamped<NavTaskState>>,
+    /// The poll periods: an answer older than `STALE_AFTER_POLLS` of its period is stale.
+    pub polls: PollPeriods,
+    /// The faults the robot reports now.
+    pub faults: Faults,
+    /// What the LEDs show.
+    pub leds: Indicators,
     /// Whether the last command failed.
     pub command_failed: bool,
     /// Why settings must not be saved now, if they must not.
@@ -617,7 +629,12 @@ impl App<'_> {
             robot: self.robot.get().robot,
             status: p.view().last_status().copied(),
             battery: p.view().last_battery().copied(),
-            fault: fault(p.view(), now),
+            perception: p.view().last_perception().copied(),
+            motors: p.view().last_motor_temperatures().copied(),
+            nav: p.view().last_nav_state().copied(),
+            polls: p.view().polls(),
+            faults: Faults::of(p.view(), now),
+            leds: p.indicators(now),
             command_failed: p.control().last_failed(),
             busy: p.busy(),
             board_address: self.shared.board_address(),

@@ -26,6 +26,7 @@ use terminal::{Keyboard, Screen};
 use x30_panel::config::RobotAddress;
 use x30_panel::console;
 use x30_panel::settings::Settings;
+use x30_panel::settings::desk::Desk;
 use x30_panel::settings::store::Store;
 
 fn simulator(time_scale: f64) -> Simulator {
@@ -1096,6 +1097,7 @@ async fn console_session(shared: &Shared, flash: &SimFlash, lines: &[&str], gap_
     let mut settings = Settings::new(config());
     let (keyboard, keys) = Keyboard::new();
     let screen = Screen::default();
+    let desk = Desk::new();
     let console = console::run(
         keyboard,
         screen.clone(),
@@ -1103,6 +1105,7 @@ async fn console_session(shared: &Shared, flash: &SimFlash, lines: &[&str], gap_
         &mut settings,
         None,
         shared,
+        &desk,
     );
     let typing = async {
         for line in lines {

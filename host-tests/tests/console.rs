@@ -15,11 +15,13 @@ use x30_panel::config::{Cidr, Config};
 use x30_panel::console::commands::{Action, execute};
 use x30_panel::console::line::{Input, LINE_MAX, LineEditor};
 use x30_panel::console::{self, Answer, Reboot};
-use x30_panel::panel::indicators::LinkState;
+use x30_panel::panel::indicators::{Faults, LinkState};
 use x30_panel::panel::monitor::Stamped;
 use x30_panel::panel::{Busy, Button, ButtonEvent};
+use x30_panel::panel::{Indicators, Led};
 use x30_panel::proto::codes::MotionState;
 use x30_panel::proto::message::RobotStatus;
+use x30_panel::settings::desk::{self, Desk, Refused};
 use x30_panel::settings::store::{BUF_LEN, Store};
 use x30_panel::settings::{self, Key, LoadProblem, Settings};
 
@@ -120,7 +122,16 @@ fn snapshot() -> Snapshot {
         robot: Config::default().robot,
         status: Some(Stamped::new(status, Instant::now())),
         battery: None,
-        fault: None,
+        perception: None,
+        motors: None,
+        nav: None,
+        polls: Config::default().polls,
+        faults: Faults::default(),
+        leds: Indicators {
+            link: Led::On,
+            activity: Led::Off,
+            fault: Led::Off,
+        },
         command_failed: false,
         busy: None,
         board_address: Some(Cidr {
@@ -228,31 +239,31 @@ fn set_checks_the_value_and_names_what_is_allowed() {
 #[test]
 fn save_is_refused_with_a_reason() {
     let mut s = Settings::new(Config::default());
-    let (action, nothing) = run_line("save", &mut s, None);
+    assert_eq!(run_line("save", &mut s, None).0, Action::Save);
+    assert_eq!(desk::check(&s, None), Err(Refused::NothingChanged));
     assert_eq!(
-        (action, nothing.trim_end()),
-        (Action::Answered, "nothing changed; nothing to save")
+        Refused::NothingChanged.to_string(),
+        "nothing changed; nothing to save"
     );
 
     s.set(Key::Dhcp, "0").unwrap();
-    let (action, conflict) = run_line("save", &mut s, None);
-    assert_eq!(action, Action::Answered);
-    assert!(conflict.contains("dhcp is 0 but ip is none"), "{conflict}");
+    let conflict = desk::check(&s, None).unwrap_err();
+    assert!(
+        conflict.to_string().contains("dhcp is 0 but ip is none"),
+        "{conflict}"
+    );
     s.set(Key::Ip, "10.0.0.9/24").unwrap();
 
     for busy in [Busy::MotionHeld, Busy::TaskRunning, Busy::StopPending] {
-        let snapshot = Snapshot {
-            busy: Some(busy),
-            ..snapshot()
-        };
-        let (action, refused) = run_line("save", &mut s, Some(&snapshot));
-        assert_eq!(action, Action::Answered, "{busy:?}");
+        let refused = desk::check(&s, Some(busy)).unwrap_err();
+        assert_eq!(refused, Refused::Busy(busy));
+        let text = refused.to_string();
         assert!(
-            refused.starts_with("not saved: ") && refused.contains(busy.description()),
-            "{refused}"
+            text.starts_with("not saved: ") && text.contains(busy.description()),
+            "{text}"
         );
     }
-    assert_eq!(run_line("save", &mut s, Some(&snapshot())).0, Action::Save);
+    assert_eq!(desk::check(&s, None), Ok(()));
 }
 
 #[test]
@@ -347,6 +358,7 @@ async fn session(
     let (keyboard, keys) = Keyboard::new();
     keys.send(input.as_bytes().to_vec()).unwrap();
     let screen = Screen::default();
+    let desk = Desk::new();
     let console = console::run(
         keyboard,
         screen.clone(),
@@ -354,6 +366,7 @@ async fn session(
         &mut settings,
         problem,
         shared,
+        &desk,
     );
     let rebooted = tokio::time::timeout(std::time::Duration::from_millis(300), console).await;
     (screen.text(), rebooted == Ok(Reboot))
@@ -466,4 +479,97 @@ async fn a_lost_store_is_told_in_the_greeting() {
         let (screen, _) = session(&flash(), &shared, Some(problem), "").await;
         assert!(screen.contains(words), "{problem:?}: {screen:?}");
     }
+}
+
+/// Runs a console over `flash` while `script` runs with the desk; the screen and what the
+/// script returned. `typed` is typed first.
+async fn with_console<R>(
+    flash: &SimFlash,
+    shared: &Shared,
+    typed: &str,
+    script: impl AsyncFnOnce(&Desk) -> R,
+) -> (String, R) {
+    let mut store = Store::new(flash.clone(), 0..2 * PAGE as u32);
+    let mut settings = Settings::new(Config::default());
+    let desk = Desk::new();
+    let (keyboard, keys) = Keyboard::new();
+    keys.send(typed.as_bytes().to_vec()).unwrap();
+    let screen = Screen::default();
+    let console = console::run(
+        keyboard,
+        screen.clone(),
+        &mut store,
+        &mut settings,
+        None,
+        shared,
+        &desk,
+    );
+    let script = async {
+        // Let the console take the typed text in and publish its settings.
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+        script(&desk).await
+    };
+    tokio::select! {
+        _ = console => panic!("the console asked for a reboot"),
+        result = script => (screen.text(), result),
+    }
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn the_web_pages_changes_are_saved_by_the_console_with_the_same_checks() {
+    let flash = flash();
+    let shared = Shared::new();
+    let (screen, result) = with_console(&flash, &shared, "set repeat-ms 300\r", async |desk| {
+        let mut edited = desk.settings().expect("published");
+        assert!(
+            edited.unsaved().contains(Key::Repeat),
+            "the typed change is published"
+        );
+        // The page starts from what is saved.
+        edited.revert();
+        edited.set(Key::SpeedForward, "0.3").unwrap();
+        desk.save(edited).await
+    })
+    .await;
+    let saved_keys = result.expect("saved").keys;
+    assert_eq!(saved_keys.iter().collect::<Vec<_>>(), [Key::SpeedForward]);
+    assert!(
+        screen.contains("web page: saved speed-forward in "),
+        "{screen:?}"
+    );
+    assert!(
+        screen.contains("changes typed here and not saved were dropped: repeat-ms"),
+        "{screen:?}"
+    );
+    let again = saved(&flash).await;
+    assert!(again.is_overridden(Key::SpeedForward));
+    assert!(!again.is_overridden(Key::Repeat));
+
+    // The same rule as the console's: not while a button event waits.
+    shared
+        .buttons
+        .try_send(ButtonEvent {
+            button: Button::Forward,
+            pressed: true,
+            at: Instant::now(),
+        })
+        .unwrap();
+    let before = flash.snapshot();
+    let (screen, result) = with_console(&flash, &shared, "", async |desk| {
+        let mut edited = desk.settings().expect("published");
+        edited.set(Key::SpeedForward, "0.4").unwrap();
+        desk.save(edited).await
+    })
+    .await;
+    assert_eq!(result, Err(Refused::Busy(Busy::StopPending)));
+    assert!(screen.contains("web page: not saved: "), "{screen:?}");
+    assert_eq!(flash.snapshot(), before, "nothing written");
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_desk_without_an_owner_refuses_at_once() {
+    let desk = Desk::new();
+    let settings = Settings::new(Config::default());
+    assert_eq!(desk.save(settings).await, Err(Refused::NoOwner));
+    assert_eq!(desk.settings(), None);
 }

@@ -11,6 +11,7 @@ use x30_panel::app::{self, Shared};
 use x30_panel::config::{Cidr, Config, Network};
 use x30_panel::console::{self, Reboot};
 use x30_panel::panel::NetworkState;
+use x30_panel::settings::desk::Desk;
 use x30_panel::settings::store::Store;
 use x30_panel::settings::{self, LoadProblem, Settings};
 
@@ -18,6 +19,9 @@ use super::net::{self, LinkBuffers, SocketBuffers};
 
 /// What the board and the application share.
 pub static SHARED: Shared = Shared::new();
+
+/// Where the console, which owns the settings, takes the web page's changes.
+pub static DESK: Desk = Desk::new();
 
 /// The socket buffers of the three connections to the robot.
 static LINK_BUFFERS: ConstStaticCell<LinkBuffers> = ConstStaticCell::new([
@@ -81,7 +85,7 @@ pub async fn run_console<R: Read, W: Write, F: NorFlash>(
     mut settings: Settings,
     problem: Option<LoadProblem>,
 ) -> ! {
-    let _: Reboot = console::run(rx, tx, &mut store, &mut settings, problem, &SHARED).await;
+    let _: Reboot = console::run(rx, tx, &mut store, &mut settings, problem, &SHARED, &DESK).await;
     board_log!(info, "rebooting, as asked on the console");
     cortex_m::peripheral::SCB::sys_reset()
 }

@@ -18,7 +18,7 @@ pub const POSE_MAX_AGE: Duration = Duration::from_secs(2);
 pub enum Action {
     /// Nothing more: the answer is written.
     Answered,
-    /// Save the edited settings (checked: something changed, nothing conflicts).
+    /// Save the edited settings, if they may be saved now.
     Save,
     /// Restart the board.
     Reboot,
@@ -53,7 +53,8 @@ pub fn execute(
         "show" => show(rest, settings, answer),
         "set" => set(rest, settings, answer),
         "unset" => unset(rest, settings, answer),
-        "save" if rest.is_empty() => save(settings, snapshot, answer),
+        // Checked and done by the console, right before the flash work.
+        "save" if rest.is_empty() => Action::Save,
         "status" if rest.is_empty() => status(settings, snapshot, now, answer),
         "dock" => dock(rest, settings, snapshot, now, answer),
         "reboot" if rest.is_empty() => {
@@ -203,27 +204,6 @@ fn changed(key: Key, settings: &Settings, answer: &mut Answer) {
     let _ = writeln!(answer, "{note}");
 }
 
-/// `save`: checks what it can without the flash; the console does the rest.
-fn save(settings: &Settings, snapshot: Option<&Snapshot>, answer: &mut Answer) -> Action {
-    if settings.unsaved().is_empty() {
-        let _ = writeln!(answer, "nothing changed; nothing to save");
-        return Action::Answered;
-    }
-    if let Err(conflict) = settings.check() {
-        let _ = writeln!(answer, "not saved: {conflict}");
-        return Action::Answered;
-    }
-    if let Some(busy) = snapshot.and_then(|s| s.busy) {
-        let _ = writeln!(
-            answer,
-            "not saved: {}; save when the panel is idle",
-            busy.description()
-        );
-        return Action::Answered;
-    }
-    Action::Save
-}
-
 /// `status`.
 fn status(
     settings: &Settings,
@@ -274,7 +254,7 @@ fn status(
         }
     }
     let _ = write!(answer, "fault      ");
-    let _ = match (s.fault, s.command_failed) {
+    let _ = match (s.faults.iter().next(), s.command_failed) {
         (Some(fault), _) => writeln!(answer, "{}", fault.description()),
         (None, true) => writeln!(answer, "the last command failed"),
         (None, false) => writeln!(answer, "none"),
@@ -339,7 +319,7 @@ fn dock(
         return Action::Answered;
     }
     let _ = writeln!(answer, "dock = {text} (the robot's pose now)");
-    save(settings, snapshot, answer)
+    Action::Save
 }
 
 /// The key named `name`, or an answer saying there is none.

@@ -24,9 +24,11 @@ use embassy_time::Instant;
 use embedded_io_async::{Read, Write};
 use embedded_storage_async::nor_flash::NorFlash;
 
+use embassy_futures::select::{Either, select};
+
 use crate::app::Shared;
-use crate::panel::Busy;
-use crate::settings::store::{BLOB_MAX, BUF_LEN, Store};
+use crate::settings::desk::{self, Desk, Refused, Saved};
+use crate::settings::store::Store;
 use crate::settings::{Key, Keys, LoadProblem, Settings};
 use commands::Action;
 use line::{Input, LineEditor};
@@ -44,8 +46,9 @@ pub type Answer = heapless::String<ANSWER_MAX>;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Reboot;
 
-/// Runs the console until `reboot`: greets, then reads lines from `rx` and answers on `tx`.
-/// `problem` is what went wrong loading the saved settings, told in the greeting.
+/// Runs the console until `reboot`: greets, then reads lines from `rx` and answers on `tx`,
+/// and saves the web page's changes handed over at `desk`. `problem` is what went wrong
+/// loading the saved settings, told in the greeting.
 pub async fn run<R: Read, W: Write, F: NorFlash>(
     mut rx: R,
     mut tx: W,
@@ -53,6 +56,7 @@ pub async fn run<R: Read, W: Write, F: NorFlash>(
     settings: &mut Settings,
     problem: Option<LoadProblem>,
     shared: &Shared,
+    desk: &Desk,
 ) -> Reboot {
     let mut answer = Answer::new();
     let _ = writeln!(
@@ -69,12 +73,23 @@ pub async fn run<R: Read, W: Write, F: NorFlash>(
     let mut editor = LineEditor::new();
     let mut byte = [0u8; 1];
     loop {
-        // A failed read (a UART framing error, say) only loses that byte.
-        if !matches!(rx.read(&mut byte).await, Ok(1)) {
-            continue;
-        }
-        let [typed] = byte;
+        desk.publish(settings);
         answer.clear();
+        let typed = match select(rx.read(&mut byte), desk.request()).await {
+            // A failed read (a UART framing error, say) only loses that byte.
+            Either::First(Ok(1)) => {
+                let [typed] = byte;
+                typed
+            }
+            Either::First(_) => continue,
+            Either::Second(edited) => {
+                web_save(store, settings, edited, desk, shared, &mut answer).await;
+                let _ = answer.push_str(PROMPT);
+                let _ = answer.push_str(editor.line());
+                send(&mut tx, &answer).await;
+                continue;
+            }
+        };
         match editor.push(typed) {
             Input::Nothing => {}
             Input::Echo(c) => {
@@ -101,7 +116,10 @@ pub async fn run<R: Read, W: Write, F: NorFlash>(
                 );
                 match action {
                     Action::Answered => {}
-                    Action::Save => save(store, settings, shared, &mut answer).await,
+                    Action::Save => {
+                        let result = desk::save(store, settings, shared).await;
+                        tell_saved(&result, settings, &mut answer);
+                    }
                     Action::Reboot => {
                         send(&mut tx, &answer).await;
                         return Reboot;
@@ -112,6 +130,31 @@ pub async fn run<R: Read, W: Write, F: NorFlash>(
         }
         send(&mut tx, &answer).await;
     }
+}
+
+/// Saves settings edited on the web page, as if `save` were typed here, and answers the
+/// desk. Changes typed here and not saved give way to the page's (which start from the
+/// saved settings), and the console says so.
+async fn web_save<F: NorFlash>(
+    store: &mut Store<F>,
+    settings: &mut Settings,
+    edited: Settings,
+    desk: &Desk,
+    shared: &Shared,
+    answer: &mut Answer,
+) {
+    let typed = core::mem::replace(settings, edited);
+    let result = desk::save(store, settings, shared).await;
+    let _ = write!(answer, "\r\nweb page: ");
+    tell_saved(&result, settings, answer);
+    if result.is_err() {
+        *settings = typed;
+    } else if !typed.unsaved().is_empty() {
+        let _ = write!(answer, "changes typed here and not saved were dropped: ");
+        names(typed.unsaved(), answer);
+        let _ = writeln!(answer);
+    }
+    desk.answer(result);
 }
 
 /// Writes `text` to the terminal, `\n` as `\r\n`. A terminal that is gone loses it.
@@ -125,65 +168,20 @@ async fn send<W: Write>(tx: &mut W, text: &str) {
     let _ = tx.flush().await;
 }
 
-/// Why the panel must not save now: what the application reports, or a button event it has
-/// not taken in yet.
-pub fn busy(shared: &Shared) -> Option<Busy> {
-    let panel = shared.snapshot().and_then(|s| s.busy);
-    if panel.is_none() && !shared.buttons.is_empty() {
-        // The event may be a motion press or a stop: let the panel see it first.
-        return Some(Busy::StopPending);
-    }
-    panel
-}
-
-/// Saves the edited settings, unless the panel is busy, and puts them in effect.
-async fn save<F: NorFlash>(
-    store: &mut Store<F>,
-    settings: &mut Settings,
-    shared: &Shared,
-    answer: &mut Answer,
-) {
-    // Checked again right before the flash work: a button may have been pressed since the
-    // command was read.
-    if let Some(busy) = busy(shared) {
-        let _ = writeln!(
-            answer,
-            "not saved: {}; save when the panel is idle",
-            busy.description()
-        );
-        return;
-    }
-    let mut blob = [0u8; BLOB_MAX];
-    let Some(len) = settings.emit(&mut blob) else {
-        let _ = writeln!(answer, "not saved: the settings do not fit the store");
-        return;
+/// Tells how a save went.
+pub fn tell_saved(result: &Result<Saved, Refused>, settings: &Settings, answer: &mut Answer) {
+    let saved = match result {
+        Ok(saved) => saved,
+        Err(refused) => {
+            let _ = writeln!(answer, "{refused}");
+            return;
+        }
     };
-    let mut scratch = [0u8; BUF_LEN];
-    let unsaved = settings.unsaved();
-    let moved = settings.edited().robot != settings.config().robot;
-    let started = Instant::now();
-    let result = store
-        .save(blob.get(..len).unwrap_or_default(), &mut scratch)
-        .await;
-    let took = Instant::now().saturating_duration_since(started);
-    if let Err(e) = result {
-        warn!("settings: save failed: {:?}", e);
-        let _ = writeln!(
-            answer,
-            "not saved: the flash failed ({:?}); the settings in effect are unchanged",
-            e
-        );
-        return;
-    }
-    settings.commit();
-    shared.set_settings_lost(false);
-    shared.apply_settings(settings.config().clone());
-    info!("settings: saved in {} ms", took.as_millis());
     let _ = write!(answer, "saved ");
-    names(unsaved, answer);
-    let _ = write!(answer, " in {} ms", took.as_millis());
+    names(saved.keys, answer);
+    let _ = write!(answer, " in {} ms", saved.took.as_millis());
     // A field engineer sees what an erase costs on this board (it stalls some chips).
-    match store.last_save_erases() {
+    match saved.erases {
         0 => {}
         1 => {
             let _ = write!(answer, " (1 page erased)");
@@ -192,13 +190,17 @@ async fn save<F: NorFlash>(
             let _ = write!(answer, " ({n} pages erased)");
         }
     }
-    if moved {
+    if saved.moved {
         let _ = write!(answer, "; the panel reconnects to ");
         let _ = Key::Robot.write(settings.config(), answer);
         let _ = write!(answer, " now");
     }
     let _ = writeln!(answer);
-    let mut later = unsaved.iter().filter(|key| key.needs_reboot()).peekable();
+    let mut later = saved
+        .keys
+        .iter()
+        .filter(|key| key.needs_reboot())
+        .peekable();
     if later.peek().is_some() {
         let _ = write!(answer, "after `reboot`:");
         for key in later {

@@ -17,6 +17,7 @@ use embassy_time::{Duration, Instant};
 
 use super::monitor::RobotView;
 use crate::proto::codes::{Location, MotionState, MotorState, ProtectedState};
+use crate::proto::message::RobotStatus;
 
 /// How long the activity LED lights for one command: long enough to see.
 pub const FLASH: Duration = Duration::from_millis(50);
@@ -107,6 +108,16 @@ pub enum Fault {
 }
 
 impl Fault {
+    /// Every fault, most severe first.
+    pub const ALL: [Fault; 6] = [
+        Self::Fallen,
+        Self::SoftEmergencyStop,
+        Self::MotorOverTemperature,
+        Self::LocalisationLost,
+        Self::BatteryLow,
+        Self::BatteryProtection,
+    ];
+
     /// Short English description, for the log.
     pub const fn description(self) -> &'static str {
         match self {
@@ -120,29 +131,55 @@ impl Fault {
     }
 }
 
+/// A set of faults.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Faults(u8);
+
+impl Faults {
+    /// The faults the robot reports in fresh answers at `now`.
+    pub fn of(view: &RobotView, now: Instant) -> Self {
+        Self(faults(view, now).fold(0, |set, fault| set | 1 << fault as u8))
+    }
+
+    /// The faults of the set, most severe first.
+    pub fn iter(self) -> impl Iterator<Item = Fault> {
+        Fault::ALL
+            .into_iter()
+            .filter(move |&fault| self.0 & 1 << fault as u8 != 0)
+    }
+}
+
 /// The first fault the robot reports in fresh answers at `now`, most severe first.
 pub fn fault(view: &RobotView, now: Instant) -> Option<Fault> {
-    if let Some(status) = view.status(now) {
-        let faults = [
-            (status.motion_state == MotionState::Fallen, Fault::Fallen),
-            (
-                status.motion_state == MotionState::SoftEmergencyStop,
-                Fault::SoftEmergencyStop,
-            ),
-            (
-                status.motor_state == MotorState::OverTemperature,
-                Fault::MotorOverTemperature,
-            ),
-            (status.location == Location::Lost, Fault::LocalisationLost),
-            (status.electricity <= LOW_BATTERY_PERCENT, Fault::BatteryLow),
-        ];
-        if let Some(&(_, fault)) = faults.iter().find(|(active, _)| *active) {
-            return Some(fault);
-        }
-    }
-    view.battery(now)
+    faults(view, now).next()
+}
+
+/// Every fault the robot reports in fresh answers at `now`, most severe first.
+pub fn faults(view: &RobotView, now: Instant) -> impl Iterator<Item = Fault> {
+    let status = view.status(now);
+    let from_status =
+        |active: fn(&RobotStatus) -> bool, fault| status.filter(|s| active(s)).map(|_| fault);
+    let protection = view
+        .battery(now)
         .filter(|b| b.protected_state == ProtectedState::Triggered)
-        .map(|_| Fault::BatteryProtection)
+        .map(|_| Fault::BatteryProtection);
+    [
+        from_status(|s| s.motion_state == MotionState::Fallen, Fault::Fallen),
+        from_status(
+            |s| s.motion_state == MotionState::SoftEmergencyStop,
+            Fault::SoftEmergencyStop,
+        ),
+        from_status(
+            |s| s.motor_state == MotorState::OverTemperature,
+            Fault::MotorOverTemperature,
+        ),
+        from_status(|s| s.location == Location::Lost, Fault::LocalisationLost),
+        from_status(|s| s.electricity <= LOW_BATTERY_PERCENT, Fault::BatteryLow),
+        protection,
+    ]
+    .into_iter()
+    .flatten()
 }
 
 /// The link LED.

@@ -266,6 +266,26 @@ impl RobotView {
         self.battery.as_ref()
     }
 
+    /// The latest perception answer as received, however old, with its arrival time.
+    pub fn last_perception(&self) -> Option<&Stamped<Perception>> {
+        self.perception.as_ref()
+    }
+
+    /// The latest motor temperatures as received, however old, with their arrival time.
+    pub fn last_motor_temperatures(&self) -> Option<&Stamped<MotorTemperatures>> {
+        self.motor_temperatures.as_ref()
+    }
+
+    /// The latest navigation-task status as received, however old, with its arrival time.
+    pub fn last_nav_state(&self) -> Option<&Stamped<NavTaskState>> {
+        self.nav_state.as_ref()
+    }
+
+    /// The poll periods, from which the answers' age limits follow.
+    pub fn polls(&self) -> PollPeriods {
+        self.polls
+    }
+
     /// The battery answer if it is fresh at `now`.
     pub fn battery(&self, now: Instant) -> Option<&Battery> {
         fresh(&self.battery, self.polls.battery, now)

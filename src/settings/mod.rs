@@ -43,6 +43,7 @@
 //! firmware reads the same in the next even where types change, and an unknown key (from a
 //! newer firmware) is skipped rather than misread.
 
+pub mod desk;
 pub mod store;
 pub mod text;
 

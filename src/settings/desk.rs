@@ -1,0 +1,194 @@
+//! Saving settings, and the desk where the console and the web page meet to do it.
+//!
+//! One task owns the settings and their store: the console's ([`crate::console::run`]). It
+//! saves what is typed on the serial port, and it also takes the web page's changes from the
+//! [`Desk`]: the web task reads the settings the owner published there, applies a form to a
+//! copy, and hands the copy back to be saved; the owner saves it as it would a `save` typed
+//! on the console, with the same checks, and answers. So there is one store, one set of
+//! edits and one rule for when saving is allowed, whoever asks.
+
+use core::cell::RefCell;
+use core::fmt;
+
+use embassy_sync::blocking_mutex::Mutex as BlockingMutex;
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::mutex::Mutex;
+use embassy_sync::signal::Signal;
+use embassy_time::{Duration, Instant};
+use embedded_storage_async::nor_flash::NorFlash;
+
+use super::store::{BLOB_MAX, BUF_LEN, Store, StoreError};
+use super::{Conflict, Keys, Settings};
+use crate::app::Shared;
+use crate::panel::Busy;
+
+/// A save that happened.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Saved {
+    /// The keys whose values changed.
+    pub keys: Keys,
+    /// How long the store took.
+    pub took: Duration,
+    /// Flash pages the store erased (each one stalls some chips).
+    pub erases: u32,
+    /// Whether the robot's address changed: the panel reconnects.
+    pub moved: bool,
+}
+
+/// Why a save did not happen; the settings in effect are unchanged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Refused {
+    /// Nothing differs from what is saved.
+    NothingChanged,
+    /// The edits contradict each other.
+    Conflict(Conflict),
+    /// The panel is doing something a flash erase must not delay.
+    Busy(Busy),
+    /// The settings do not fit the store.
+    TooLarge,
+    /// The flash failed; saving again may work.
+    Flash(StoreError),
+    /// Nobody owns the settings (the console task is not running).
+    NoOwner,
+}
+
+impl fmt::Display for Refused {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NothingChanged => f.write_str("nothing changed; nothing to save"),
+            Self::Conflict(conflict) => write!(f, "not saved: {conflict}"),
+            Self::Busy(busy) => write!(
+                f,
+                "not saved: {}; save when the panel is idle",
+                busy.description()
+            ),
+            Self::TooLarge => f.write_str("not saved: the settings do not fit the store"),
+            Self::Flash(e) => write!(
+                f,
+                "not saved: the flash failed ({e}); the settings in effect are unchanged"
+            ),
+            Self::NoOwner => f.write_str("not saved: the settings are not available yet"),
+        }
+    }
+}
+
+/// Why the panel must not save now: what the application reports, or a button event it has
+/// not taken in yet.
+pub fn busy(shared: &Shared) -> Option<Busy> {
+    let panel = shared.snapshot().and_then(|s| s.busy);
+    if panel.is_none() && !shared.buttons.is_empty() {
+        // The event may be a motion press or a stop: let the panel see it first.
+        return Some(Busy::StopPending);
+    }
+    panel
+}
+
+/// Whether `settings`' edits may be saved while the panel is `busy` (or not).
+pub fn check(settings: &Settings, busy: Option<Busy>) -> Result<(), Refused> {
+    if settings.unsaved().is_empty() {
+        return Err(Refused::NothingChanged);
+    }
+    settings.check().map_err(Refused::Conflict)?;
+    match busy {
+        Some(busy) => Err(Refused::Busy(busy)),
+        None => Ok(()),
+    }
+}
+
+/// Saves the edited settings through `store` and puts them in effect, unless [`check`]
+/// refuses, asked right before the flash work.
+pub async fn save<F: NorFlash>(
+    store: &mut Store<F>,
+    settings: &mut Settings,
+    shared: &Shared,
+) -> Result<Saved, Refused> {
+    check(settings, busy(shared))?;
+    let mut blob = [0u8; BLOB_MAX];
+    let len = settings.emit(&mut blob).ok_or(Refused::TooLarge)?;
+    let mut scratch = [0u8; BUF_LEN];
+    let keys = settings.unsaved();
+    let moved = settings.edited().robot != settings.config().robot;
+    let started = Instant::now();
+    let result = store
+        .save(blob.get(..len).unwrap_or_default(), &mut scratch)
+        .await;
+    let took = Instant::now().saturating_duration_since(started);
+    if let Err(e) = result {
+        warn!("settings: save failed: {:?}", e);
+        return Err(Refused::Flash(e));
+    }
+    settings.commit();
+    shared.set_settings_lost(false);
+    shared.apply_settings(settings.config().clone());
+    info!("settings: saved in {} ms", took.as_millis());
+    Ok(Saved {
+        keys,
+        took,
+        erases: store.last_save_erases(),
+        moved,
+    })
+}
+
+/// Where the settings' owner publishes them and takes other tasks' edits to save.
+pub struct Desk {
+    /// The owner's settings, as of its last change.
+    published: BlockingMutex<CriticalSectionRawMutex, RefCell<Option<Settings>>>,
+    /// One request at a time.
+    turn: Mutex<CriticalSectionRawMutex, ()>,
+    /// Edited settings to save.
+    requests: Signal<CriticalSectionRawMutex, Settings>,
+    /// The owner's answer.
+    replies: Signal<CriticalSectionRawMutex, Result<Saved, Refused>>,
+}
+
+impl Default for Desk {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Desk {
+    /// An empty desk, for a `static`.
+    pub const fn new() -> Self {
+        Self {
+            published: BlockingMutex::new(RefCell::new(None)),
+            turn: Mutex::new(()),
+            requests: Signal::new(),
+            replies: Signal::new(),
+        }
+    }
+
+    /// The owner's settings (a copy); `None` before the owner runs.
+    pub fn settings(&self) -> Option<Settings> {
+        self.published.lock(|cell| cell.borrow().clone())
+    }
+
+    /// Asks the owner to save `edited` (its settings with changes made on a copy) and waits
+    /// for the answer.
+    pub async fn save(&self, edited: Settings) -> Result<Saved, Refused> {
+        if self.published.lock(|cell| cell.borrow().is_none()) {
+            return Err(Refused::NoOwner);
+        }
+        let _turn = self.turn.lock().await;
+        self.replies.reset();
+        self.requests.signal(edited);
+        self.replies.wait().await
+    }
+
+    /// The owner: publishes its settings.
+    pub fn publish(&self, settings: &Settings) {
+        self.published
+            .lock(|cell| *cell.borrow_mut() = Some(settings.clone()));
+    }
+
+    /// The owner: waits for edits to save.
+    pub async fn request(&self) -> Settings {
+        self.requests.wait().await
+    }
+
+    /// The owner: answers the request it took.
+    pub fn answer(&self, result: Result<Saved, Refused>) {
+        self.replies.signal(result);
+    }
+}
