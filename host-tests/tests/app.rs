@@ -1171,3 +1171,25 @@ async fn an_unconfirmed_estop_keeps_settings_from_being_saved() {
     })
     .await;
 }
+
+#[tokio::test(flavor = "current_thread")]
+async fn lost_settings_blink_the_fault_led_until_a_save() {
+    let sim = simulator(1.0);
+    with_app(&sim, async |shared| {
+        let mut leds = Leds(None);
+        let healthy = leds
+            .until(shared, 3000, |i| i.link == Led::On && i.fault == Led::Off)
+            .await;
+        assert_eq!(healthy.fault, Led::Off);
+        shared.set_settings_lost(true);
+        let lost = leds.until(shared, 1000, |i| i.fault == Led::Blink).await;
+        assert_eq!(lost.fault, Led::Blink, "the defaults are in use");
+
+        let flash = SimFlash::new(2);
+        let screen = console_session(shared, &flash, &["set repeat-ms 300", "save"], 100).await;
+        assert!(screen.contains("saved repeat-ms in"), "{screen}");
+        let saved = leds.until(shared, 1000, |i| i.fault == Led::Off).await;
+        assert_eq!(saved.fault, Led::Off, "a save rewrote the store");
+    })
+    .await;
+}

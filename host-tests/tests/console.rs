@@ -573,3 +573,25 @@ async fn a_desk_without_an_owner_refuses_at_once() {
     assert_eq!(desk.save(settings).await, Err(Refused::NoOwner));
     assert_eq!(desk.settings(), None);
 }
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_damaged_store_loads_the_defaults_and_counts_as_lost() {
+    let flash = flash();
+    // Not a store: bytes no save writes.
+    flash.with_mem(|mem| {
+        for (i, byte) in mem.iter_mut().enumerate() {
+            *byte = (i * 7 + 3) as u8;
+        }
+    });
+    let mut store = Store::new(flash.clone(), 0..2 * PAGE as u32);
+    let (settings, problem) = settings::load(&mut store, Config::default()).await;
+    assert_eq!(settings, Settings::new(Config::default()));
+    let problem = problem.expect("a problem is reported");
+    assert!(problem.is_loss(), "{problem:?}");
+    let shared = Shared::new();
+    let (screen, _) = session(&flash, &shared, Some(problem), "").await;
+    assert!(
+        screen.contains("every setting has its default"),
+        "{screen:?}"
+    );
+}

@@ -28,9 +28,10 @@
 //! - **Checked writes.** Every write is checked to need no programmed bit back at 1 (a page
 //!   left nearly erased reads as blank but is not) and read back. A write that fails either
 //!   check makes the save erase the whole range and write afresh.
-//! - **Foreign or damaged data.** Pages that are not such a map (another program's data,
-//!   worn-out flash) make a load fail with [`StoreError::Corrupted`], or give nothing; the
-//!   next save erases the whole range and starts afresh. A load erases a page only if
+//! - **Foreign or damaged data.** Pages that hold no valid item and are not blank (another
+//!   program's data, worn-out flash, or a very first save cut short) make a load fail with
+//!   [`StoreError::Corrupted`]; only blank pages load as nothing saved. The next save erases
+//!   the whole range and starts afresh. A load erases a page only if
 //!   another page holds a valid item. What the blob says is the caller's business: an item of
 //!   this layout written by something else reads as a blob here, which is why the settings
 //!   blob starts with its own magic.
@@ -162,12 +163,17 @@ impl<F: NorFlash> Store<F> {
         let newest = self.settle(buf).await?;
         let map = self.map.as_mut().ok_or(StoreError::BadRange)?;
         let Some((page, generation)) = newest else {
-            // No valid item anywhere: blank, a first save cut short, or foreign data. The
-            // map tells which (a foreign range seldom passes for a map).
-            return match scan(map, buf).await? {
-                None => Ok(None),
-                Some(_) => Err(StoreError::Internal),
-            };
+            // No valid item anywhere: blank flash holds nothing; anything else is foreign
+            // data, damage, or a first save cut short, which the caller is told about.
+            if scan(map, buf).await?.is_some() {
+                return Err(StoreError::Internal);
+            }
+            for page in 0..map.flash().pages {
+                if !page_blank(map, page, buf).await? {
+                    return Err(StoreError::Corrupted);
+                }
+            }
+            return Ok(None);
         };
         // Read the newest item again, into `buf`, and find where its blob lies there.
         let base = buf.as_ptr().addr();
