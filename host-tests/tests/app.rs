@@ -1193,3 +1193,30 @@ async fn lost_settings_blink_the_fault_led_until_a_save() {
     })
     .await;
 }
+
+#[tokio::test(flavor = "current_thread")]
+async fn an_estop_goes_out_at_once_while_the_console_is_flooded() {
+    let sim = simulator(1.0);
+    with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        let flash = SimFlash::new(2);
+        // `show` pasted 5000 times at once: megabytes of answers to write.
+        let flood = "show\r".repeat(5000);
+        let lines = [flood.as_str()];
+        let start = sim.elapsed().as_secs_f64();
+        let estop = async {
+            // The press is meant for 50 ms in: whatever delays it counts.
+            sleep(50).await;
+            press(shared, Button::Estop, true).await;
+            let sent = wait_for_command(&sim, 5000, start, 13).await;
+            sent.map(|t| t - (start + 0.05))
+        };
+        let (latency, screen) =
+            tokio::join!(estop, console_session(shared, &flash, &lines, 500));
+        assert!(screen.len() > 1_000_000, "the console answered the flood");
+        let latency = latency.expect("the e-stop went out");
+        // Generous: on an idle machine it is a few milliseconds.
+        assert!(latency < 0.25, "e-stop took {latency} s behind the console");
+    })
+    .await;
+}

@@ -10,7 +10,7 @@ use x30_panel::client::Health;
 use x30_panel::config::Config;
 use x30_panel::panel::NetworkState;
 use x30_panel::panel::indicators::FLASH;
-use x30_panel::panel::{Button, ConnectionRole, ConnectionState, Led, LinkState, Panel};
+use x30_panel::panel::{Busy, Button, ConnectionRole, ConnectionState, Led, LinkState, Panel};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::*;
 
@@ -378,4 +378,45 @@ fn deadlines_cover_repeats_and_polls() {
     assert!(p.command_deadline().unwrap() <= at(100));
     commands(&mut p, at(100));
     assert_eq!(p.command_deadline(), Some(at(350)));
+}
+
+#[test]
+fn the_panel_is_busy_while_a_stop_a_held_motion_or_a_task_is_under_way() {
+    let mut p = online_with(&with_dock());
+    polls(&mut p, at(0));
+    answer(&mut p, status(), 0);
+    assert_eq!(p.busy(), None, "idle");
+
+    p.press(Button::Forward, 10);
+    assert_eq!(p.busy(), Some(Busy::MotionHeld));
+    p.release(Button::Forward, 20);
+    assert_eq!(p.busy(), Some(Busy::StopPending), "zero velocity not yet out");
+    commands(&mut p, at(20));
+    assert_eq!(p.busy(), None);
+
+    p.press(Button::Estop, 30);
+    assert_eq!(p.busy(), Some(Busy::StopPending));
+    commands(&mut p, at(30));
+    assert_eq!(p.busy(), Some(Busy::StopPending), "e-stop not yet confirmed");
+    answer(
+        &mut p,
+        RobotStatus {
+            motion_state: MotionState::SoftEmergencyStop,
+            ..status()
+        },
+        40,
+    );
+    p.release(Button::Estop, 50);
+    assert_eq!(p.busy(), None, "the robot confirmed the e-stop");
+
+    let mut p = online_with(&with_dock());
+    polls(&mut p, at(0));
+    answer(&mut p, status(), 0);
+    p.press(Button::Dock, 100);
+    p.release(Button::Dock, 110);
+    let order = p.take_task(at(110)).expect("an order");
+    p.task_started(order.id, at(110));
+    assert_eq!(p.busy(), Some(Busy::TaskRunning));
+    p.task_ended(order.id, Ok(&nav_result(NavOutcome::Succeeded)), at(900));
+    assert_eq!(p.busy(), None);
 }

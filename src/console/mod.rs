@@ -73,6 +73,9 @@ pub async fn run<R: Read, W: Write, F: NorFlash>(
     let mut editor = LineEditor::new();
     let mut byte = [0u8; 1];
     loop {
+        // Typing never holds the buttons up: a terminal pasting text faster than the console
+        // answers would otherwise keep this task busy from one byte to the next.
+        embassy_futures::yield_now().await;
         desk.publish(settings);
         answer.clear();
         let typed = match select(rx.read(&mut byte), desk.request()).await {
