@@ -1211,8 +1211,7 @@ async fn an_estop_goes_out_at_once_while_the_console_is_flooded() {
             let sent = wait_for_command(&sim, 5000, start, 13).await;
             sent.map(|t| t - (start + 0.05))
         };
-        let (latency, screen) =
-            tokio::join!(estop, console_session(shared, &flash, &lines, 500));
+        let (latency, screen) = tokio::join!(estop, console_session(shared, &flash, &lines, 500));
         assert!(screen.len() > 1_000_000, "the console answered the flood");
         let latency = latency.expect("the e-stop went out");
         // Generous: on an idle machine it is a few milliseconds.

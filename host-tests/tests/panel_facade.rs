@@ -390,14 +390,22 @@ fn the_panel_is_busy_while_a_stop_a_held_motion_or_a_task_is_under_way() {
     p.press(Button::Forward, 10);
     assert_eq!(p.busy(), Some(Busy::MotionHeld));
     p.release(Button::Forward, 20);
-    assert_eq!(p.busy(), Some(Busy::StopPending), "zero velocity not yet out");
+    assert_eq!(
+        p.busy(),
+        Some(Busy::StopPending),
+        "zero velocity not yet out"
+    );
     commands(&mut p, at(20));
     assert_eq!(p.busy(), None);
 
     p.press(Button::Estop, 30);
     assert_eq!(p.busy(), Some(Busy::StopPending));
     commands(&mut p, at(30));
-    assert_eq!(p.busy(), Some(Busy::StopPending), "e-stop not yet confirmed");
+    assert_eq!(
+        p.busy(),
+        Some(Busy::StopPending),
+        "e-stop not yet confirmed"
+    );
     answer(
         &mut p,
         RobotStatus {
