@@ -51,10 +51,23 @@ if [ -z "$addr" ]; then
     exit 1
 fi
 
+# The board's web page, to open while the demo runs, forwarded to a loopback port that
+# nothing listens on: the first free one of a few random picks.
+http_port=""
+for _ in $(seq 20); do
+    port=$((20000 + RANDOM % 20000))
+    if ! (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null; then
+        http_port=$port
+        break
+    fi
+done
+[ -n "$http_port" ] || { echo "no free loopback port for the web page" >&2; exit 1; }
+
 step "panel session (scripts/demo-session.txt) against x30-sim on $addr"
+echo "web page: http://127.0.0.1:$http_port/"
 session=0
 "$bin/x30-qemu" --robot "$addr" --firmware "$elf" --timeout-s 120 \
-    <scripts/demo-session.txt || session=$?
+    --http "127.0.0.1:$http_port" <scripts/demo-session.txt || session=$?
 
 step "what the robot received (x30-sim's request log)"
 summary=0

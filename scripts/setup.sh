@@ -20,3 +20,7 @@ apt_need g++ g++
 # The QEMU board's firmware, its on-target tests, and the virtual panel (x30-qemu, its
 # end-to-end tests and the demo) run in QEMU.
 apt_need qemu-system-arm qemu-system-arm
+# The web page's end-to-end test (tools/x30-qemu/tests/web.rs) and its screenshot
+# (scripts/web-screenshot.sh) open the page in headless Chromium through chromedriver.
+apt_need chromium chromium
+apt_need chromium-driver chromedriver

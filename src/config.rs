@@ -9,6 +9,7 @@ use embassy_time::Duration;
 
 use crate::proto::codes::LightEffect;
 use crate::proto::message::{Direction, Light, NavPoint, Speed};
+pub use crate::settings::route::Route;
 pub use crate::settings::text::{
     Cidr, DEFAULT_PORT, EstopWiring, MAX_LIGHT_PRESETS, RobotAddress, WebPin,
 };
@@ -130,6 +131,8 @@ pub struct Config {
     pub estop_input: EstopWiring,
     /// The web page's PIN for changing settings; `None`: the page is read-only.
     pub web_pin: Option<WebPin>,
+    /// The points the `patrol` button walks through; empty: no patrol.
+    pub route: Route,
 }
 
 impl Default for Config {
@@ -152,6 +155,7 @@ impl Default for Config {
             debounce: Duration::from_millis(15),
             estop_input: EstopWiring::NormallyOpen,
             web_pin: None,
+            route: Route::new(),
         }
     }
 }

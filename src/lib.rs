@@ -38,3 +38,4 @@ pub mod console;
 pub mod panel;
 pub mod proto;
 pub mod settings;
+pub mod web;

@@ -22,6 +22,7 @@ use x30_panel::panel::{Indicators, Led};
 use x30_panel::proto::codes::MotionState;
 use x30_panel::proto::message::RobotStatus;
 use x30_panel::settings::desk::{self, Desk, Refused};
+use x30_panel::settings::route::MAX_ROUTE;
 use x30_panel::settings::store::{BUF_LEN, Store};
 use x30_panel::settings::{self, Key, LoadProblem, Settings};
 
@@ -592,6 +593,72 @@ async fn a_damaged_store_loads_the_defaults_and_counts_as_lost() {
     let (screen, _) = session(&flash, &shared, Some(problem), "").await;
     assert!(
         screen.contains("every setting has its default"),
+        "{screen:?}"
+    );
+}
+
+#[test]
+fn route_points_are_added_shown_and_cleared() {
+    let mut s = Settings::new(Config::default());
+    let (_, empty) = run_line("route show", &mut s, None);
+    assert!(empty.contains("no route"), "{empty}");
+    let (_, added) = run_line("route add here", &mut s, Some(&snapshot()));
+    assert_eq!(
+        added.trim_end(),
+        "point 1: 1,1,1.5,-2,0.1,0.5,task (not saved: `save` keeps it)"
+    );
+    let (_, added) = run_line("route add 3 4.5 0 -1.5 transition", &mut s, None);
+    assert!(
+        added.starts_with("point 2: 2,1,3,4.5,0,-1.5,transition"),
+        "{added}"
+    );
+    let (_, shown) = run_line("route show", &mut s, None);
+    assert_eq!(
+        shown,
+        " 1. 1,1,1.5,-2,0.1,0.5,task\n 2. 2,1,3,4.5,0,-1.5,transition\n(not saved: `save` keeps it)\n"
+    );
+    let before = s.clone();
+    for bad in [
+        "route add 1 2 3",
+        "route add 1 2 3 x",
+        "route add 1 2 3 4 flying",
+        "route add 1 2 3 4 task extra",
+        "route fly",
+        "route",
+    ] {
+        let (_, answer) = run_line(bad, &mut s, None);
+        assert!(answer.starts_with("usage: "), "{bad}: {answer}");
+    }
+    let (_, stale) = run_line("route add here", &mut s, None);
+    assert!(stale.contains("no fresh status"), "{stale}");
+    assert_eq!(s, before, "refused commands change nothing");
+    for _ in 2..MAX_ROUTE {
+        run_line("route add 0 0 0 0", &mut s, None);
+    }
+    let (_, full) = run_line("route add 0 0 0 0", &mut s, None);
+    assert!(full.contains("the route is full (32 points)"), "{full}");
+    run_line("route clear", &mut s, None);
+    assert!(s.edited().route.is_empty());
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_saved_route_is_there_at_the_next_start() {
+    let flash = flash();
+    let shared = Shared::new();
+    let (screen, _) = session(
+        &flash,
+        &shared,
+        None,
+        "route add 1 0 0 0\rroute add 2 0 0 1.5 transition\rsave\r",
+    )
+    .await;
+    assert!(screen.contains("saved route in "), "{screen:?}");
+    let route = saved(&flash).await.config().route.clone();
+    assert_eq!(route.len(), 2);
+    assert_eq!(route[1].pose, [2.0, 0.0, 0.0, 1.5]);
+    let (screen, _) = session(&flash, &shared, None, "route show\r").await;
+    assert!(
+        screen.contains(" 2. 2,1,2,0,0,1.5,transition"),
         "{screen:?}"
     );
 }

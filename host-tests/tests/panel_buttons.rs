@@ -17,7 +17,7 @@ fn buttons_in_design_order_with_virtual_panel_names() {
     assert_eq!(
         names.join(" "),
         "forward backward turn-left turn-right strafe-left strafe-right stop estop \
-         stop-stepping lie-down gait light dock cancel"
+         stop-stepping lie-down gait light dock cancel patrol"
     );
     assert_eq!(Button::ALL.len(), BUTTON_COUNT);
     for (i, button) in Button::ALL.into_iter().enumerate() {

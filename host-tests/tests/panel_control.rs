@@ -10,9 +10,10 @@ use x30_panel::config::{Config, DEFAULT_LIGHTS};
 use x30_panel::panel::ConnectionState;
 use x30_panel::panel::Outcome;
 use x30_panel::panel::control::{ESTOP_REPEAT, ONE_SHOT_QUEUE};
-use x30_panel::panel::{Button, Control, STALE_PRESS, TaskOrder, succeeded};
+use x30_panel::panel::{Button, Control, STALE_PRESS, TaskEnd, TaskOrder, succeeded};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::*;
+use x30_panel::settings::route::RoutePoint;
 
 const FORWARD: Request = Request::Motion(MotionCommand::Move(Direction::Forward, Speed::Default));
 const BACKWARD: Request = Request::Motion(MotionCommand::Move(Direction::Backward, Speed::Default));
@@ -784,11 +785,14 @@ fn navigation_cancel_withdraws_an_ordered_task_and_sends_1004() {
 #[test]
 fn navigation_a_task_ends_with_its_answer() {
     let (mut c, order) = running_task();
-    c.task_ended(order.id, Outcome::Succeeded);
+    c.task_ended(order.id, TaskEnd::Reached, at(500));
     assert!(!c.navigating());
     assert!(!c.last_failed());
     let (mut c, order) = running_task();
-    c.task_ended(order.id, Outcome::Failed);
+    c.task_ended(order.id, TaskEnd::Cancelled, at(500));
+    assert!(!c.last_failed(), "a cancelled task is not a failure");
+    let (mut c, order) = running_task();
+    c.task_ended(order.id, TaskEnd::Failed, at(500));
     assert!(!c.navigating());
     assert!(c.last_failed(), "a failed or lost task is shown");
 }
@@ -801,7 +805,7 @@ fn navigation_the_end_of_an_older_task_does_not_end_the_current_one() {
     c.press(Button::Dock, 1100);
     let second = c.take_task(at(1100)).unwrap();
     // The cancelled task's 1003 is answered now.
-    c.task_ended(first.id, Outcome::Succeeded);
+    c.task_ended(first.id, TaskEnd::Cancelled, at(1100));
     assert!(c.navigating());
     assert!(c.task_wanted(second.id, at(1100)));
 }
@@ -812,7 +816,7 @@ fn navigation_dock_while_a_task_runs_is_dropped() {
     c.press(Button::Dock, 100);
     assert_eq!(c.take_task(at(100)), None);
     assert!(c.navigating());
-    c.task_ended(order.id, Outcome::Succeeded);
+    c.task_ended(order.id, TaskEnd::Reached, at(200));
     c.press(Button::Dock, 200);
     assert!(c.take_task(at(200)).is_some());
 }
@@ -1061,4 +1065,142 @@ fn answers_say_whether_a_command_succeeded() {
         code: RequestErrorCode::ParseFailed
     })));
     assert!(succeeded(&Response::Battery(battery())));
+}
+
+/// A configuration with a three-point route: (1,0), (2,0) and (2,1) on map 1.
+fn with_route() -> Config {
+    let mut config = Config::default();
+    for point in [
+        "1,1,1,0,0,0,transition",
+        "2,1,2,0,0,0,task",
+        "3,1,2,1,0,1.5,standing",
+    ] {
+        config
+            .route
+            .push(RoutePoint::parse(point).unwrap())
+            .unwrap();
+    }
+    config
+}
+
+/// The point order `order` goes to.
+fn target(order: &TaskOrder) -> (i32, [f32; 2]) {
+    let point = order.task.target().expect("one point");
+    (point.value, [point.pos_x, point.pos_y])
+}
+
+/// Takes, checks and starts the ordered task at `ms`.
+fn start(c: &mut Control, ms: u64) -> TaskOrder {
+    let order = c.take_task(at(ms)).expect("an order");
+    assert!(c.task_wanted(order.id, at(ms)));
+    c.task_started(order.id, at(ms));
+    order
+}
+
+#[test]
+fn patrol_walks_the_route_point_after_point() {
+    let mut c = connected_with(&with_route());
+    c.press(Button::Patrol, 0);
+    assert!(c.patrolling());
+    let first = start(&mut c, 0);
+    assert_eq!(target(&first), (1, [1.0, 0.0]));
+    assert_eq!(c.take_task(at(10)), None, "one point at a time");
+    c.task_ended(first.id, TaskEnd::Reached, at(5000));
+    let second = start(&mut c, 5000);
+    assert_eq!(target(&second), (2, [2.0, 0.0]));
+    c.task_ended(second.id, TaskEnd::Reached, at(9000));
+    let third = start(&mut c, 9000);
+    assert_eq!(target(&third), (3, [2.0, 1.0]));
+    assert_eq!(
+        third.task.target().map(|p| p.point_info),
+        Some(PointInfo::Standing)
+    );
+    c.task_ended(third.id, TaskEnd::Reached, at(12_000));
+    assert!(!c.patrolling() && !c.navigating(), "the route is done");
+    assert!(!c.last_failed());
+    assert_eq!(c.take_task(at(12_000)), None);
+}
+
+#[test]
+fn patrol_ends_at_a_failed_cancelled_or_lost_point_and_never_resumes() {
+    for end in [TaskEnd::Failed, TaskEnd::Cancelled] {
+        let mut c = connected_with(&with_route());
+        c.press(Button::Patrol, 0);
+        let first = start(&mut c, 0);
+        c.task_ended(first.id, end, at(3000));
+        assert!(!c.patrolling(), "{end:?}");
+        assert_eq!(c.take_task(at(3000)), None, "{end:?}: no next point");
+        assert_eq!(c.last_failed(), end == TaskEnd::Failed, "{end:?}");
+    }
+    // An outage: the point is lost with its connection, and the patrol with it.
+    let mut c = connected_with(&with_route());
+    c.press(Button::Patrol, 0);
+    let first = start(&mut c, 0);
+    c.connection(ConnectionState::Connecting);
+    c.task_ended(first.id, TaskEnd::Failed, at(100));
+    c.connection(ConnectionState::Open);
+    assert_eq!(c.take_task(at(5000)), None);
+    assert!(!c.patrolling());
+}
+
+#[test]
+fn patrol_is_ended_by_stop_cancel_a_motion_press_or_an_estop() {
+    for button in [Button::Stop, Button::Cancel, Button::Forward] {
+        let mut c = connected_with(&with_route());
+        c.press(Button::Patrol, 0);
+        let first = start(&mut c, 0);
+        c.press(button, 1000);
+        assert!(!c.patrolling(), "{button:?}");
+        assert!(
+            drain(&mut c, at(1000)).contains(&CANCEL),
+            "{button:?}: 1004"
+        );
+        // The robot's answer to the cancelled point starts nothing.
+        c.task_ended(first.id, TaskEnd::Cancelled, at(1100));
+        assert_eq!(c.take_task(at(1100)), None, "{button:?}");
+    }
+    let mut c = connected_with(&with_route());
+    c.press(Button::Patrol, 0);
+    let first = start(&mut c, 0);
+    c.press(Button::Estop, 1000);
+    assert!(!c.patrolling());
+    assert_eq!(drain(&mut c, at(1000)).first(), Some(&ESTOP));
+    // The robot fails the point in soft e-stop.
+    c.task_ended(first.id, TaskEnd::Failed, at(1200));
+    assert_eq!(c.take_task(at(1200)), None);
+}
+
+#[test]
+fn patrol_without_a_route_or_while_locked_only_blinks() {
+    let mut c = connected();
+    c.press(Button::Patrol, 0);
+    assert!(!c.patrolling() && !c.navigating());
+    assert!(c.last_failed(), "no route saved");
+    assert_eq!(c.take_task(at(0)), None);
+
+    let mut c = connected_with(&with_route());
+    c.press(Button::Estop, 0);
+    c.press(Button::Patrol, 100);
+    assert!(!c.patrolling());
+    assert!(c.last_failed(), "locked out by the e-stop");
+}
+
+#[test]
+fn a_stale_patrol_press_is_dropped() {
+    let mut c = connected_with(&with_route());
+    c.press(Button::Patrol, 0);
+    assert_eq!(c.take_task(at(500)), None, "not taken within 300 ms");
+    assert!(!c.patrolling());
+    assert!(c.last_failed());
+}
+
+#[test]
+fn a_patrols_next_point_does_not_go_stale() {
+    let mut c = connected_with(&with_route());
+    c.press(Button::Patrol, 0);
+    let first = start(&mut c, 0);
+    c.task_ended(first.id, TaskEnd::Reached, at(5000));
+    // Closing the finished point's connection took a while.
+    let second = start(&mut c, 6000);
+    assert_eq!(target(&second).0, 2);
 }

@@ -54,18 +54,27 @@ fn link_led_rules() {
 #[test]
 fn activity_flashes_50_ms_per_command() {
     assert_eq!(FLASH.as_millis(), 50);
-    assert_eq!(activity_led(false, None, at(100)), Led::Off);
+    assert_eq!(activity_led(Navigation::Idle, None, at(100)), Led::Off);
     let sent = Some(at(1000));
-    assert_eq!(activity_led(false, sent, at(1000)), Led::On);
-    assert_eq!(activity_led(false, sent, at(1049)), Led::On);
-    assert_eq!(activity_led(false, sent, at(1050)), Led::Off);
-    assert_eq!(activity_led(false, sent, at(999)), Led::Off);
+    assert_eq!(activity_led(Navigation::Idle, sent, at(1000)), Led::On);
+    assert_eq!(activity_led(Navigation::Idle, sent, at(1049)), Led::On);
+    assert_eq!(activity_led(Navigation::Idle, sent, at(1050)), Led::Off);
+    assert_eq!(activity_led(Navigation::Idle, sent, at(999)), Led::Off);
 }
 
 #[test]
 fn activity_is_steady_while_navigating() {
-    assert_eq!(activity_led(true, None, at(100)), Led::On);
-    assert_eq!(activity_led(true, Some(at(0)), at(10_000)), Led::On);
+    assert_eq!(activity_led(Navigation::Task, None, at(100)), Led::On);
+    assert_eq!(
+        activity_led(Navigation::Task, Some(at(0)), at(10_000)),
+        Led::On
+    );
+    // A patrol blinks, whatever was sent.
+    assert_eq!(activity_led(Navigation::Patrol, None, at(100)), Led::Blink);
+    assert_eq!(
+        activity_led(Navigation::Patrol, Some(at(90)), at(100)),
+        Led::Blink
+    );
 }
 
 #[test]
@@ -199,7 +208,7 @@ fn indicators_together_and_when_they_change() {
     let inputs = Inputs {
         link: LinkState::Connected,
         view: &v,
-        navigating: false,
+        navigation: Navigation::Idle,
         last_sent: Some(at(100)),
         panel_failure: false,
     };

@@ -5,6 +5,8 @@ use embassy_time::Duration;
 use x30_panel::config::*;
 use x30_panel::proto::codes::{LightEffect, PointInfo};
 use x30_panel::proto::message::{Direction, Speed};
+use x30_panel::settings::route::{MAX_ROUTE, ROUTE_ID, RoutePoint};
+use x30_panel::settings::store::BLOB_MAX;
 use x30_panel::settings::text::*;
 use x30_panel::settings::{Conflict, Invalid, Key, Keys, LoadProblem, MAGIC, Settings, VERSION};
 
@@ -544,4 +546,103 @@ fn build_environment_is_read() {
     if Key::ALL.iter().all(|k| k.build_value().is_none()) {
         assert_eq!(Config::from_build_env(), Config::default());
     }
+}
+
+#[test]
+fn route_points_read_as_written() {
+    let p = RoutePoint::parse("3, 2, 1.5, -2.25, 0, 2.5").unwrap();
+    assert_eq!((p.point, p.map, p.pose), (3, 2, [1.5, -2.25, 0.0, 2.5]));
+    assert_eq!(p.info, PointInfo::Task, "task when no type is written");
+    for (text, info) in [
+        ("1,1,0,0,0,0,transition", PointInfo::Transition),
+        ("1,1,0,0,0,0,Standing", PointInfo::Standing),
+        ("1,1,0,0,0,0, 3", PointInfo::Charging),
+        ("1,1,0,0,0,0,1", PointInfo::Task),
+    ] {
+        assert_eq!(
+            RoutePoint::parse(text).map(|p| p.info),
+            Some(info),
+            "{text}"
+        );
+    }
+    for bad in [
+        "1,1,0,0,0",
+        "1,1,0,0,0,0,walk",
+        "1,1,0,0,0,0,4",
+        "1,1,0,0,0,0,task,x",
+        "1,1,1e39,0,0,0",
+        "",
+    ] {
+        assert_eq!(RoutePoint::parse(bad), None, "{bad:?}");
+    }
+    let mut text = String::new();
+    p.write(&mut text).unwrap();
+    assert_eq!(text, "3,2,1.5,-2.25,0,2.5,task");
+    assert_eq!(RoutePoint::parse(&text), Some(p));
+    let nav = p.nav_point();
+    assert_eq!(
+        (nav.value, nav.map_id, nav.point_info),
+        (3, 2, PointInfo::Task)
+    );
+}
+
+#[test]
+fn a_full_route_and_every_key_fit_the_blob_and_read_back() {
+    let mut settings = Settings::new(Config::default());
+    // Long values: eight presets, a dock point and a full route with numbers of eight
+    // significant digits on a map as large as 10 km (write_f32 never uses an exponent, so
+    // a tiny number such as 1e-30 would take 40 characters: the store refuses such a
+    // blob as too large rather than cutting it).
+    settings
+        .set(
+            Key::Lights,
+            &["FFFFFF:100:breathing"; MAX_LIGHT_PRESETS].join(","),
+        )
+        .unwrap();
+    settings
+        .set(
+            Key::Dock,
+            "-2147483648,-2147483648,-1234.5679,-1234.5679,-0.33333334,-3.1415927",
+        )
+        .unwrap();
+    for &key in Key::ALL {
+        if !settings.is_overridden(key) {
+            let value = text(key, &Config::default());
+            settings.set(key, &value).unwrap();
+        }
+    }
+    for i in 0..MAX_ROUTE {
+        let text =
+            format!("{i},2147483647,-1234.5679,-1234.5679,-0.33333334,-3.1415927,transition");
+        settings
+            .add_route_point(RoutePoint::parse(&text).unwrap())
+            .unwrap();
+    }
+    assert!(
+        settings
+            .add_route_point(RoutePoint::parse("1,1,0,0,0,0").unwrap())
+            .is_err(),
+        "full"
+    );
+    let mut out = vec![0u8; BLOB_MAX];
+    let len = settings.emit(&mut out).expect("fits the store");
+    let (loaded, problem) = Settings::parse(Config::default(), &out[..len]);
+    assert_eq!(problem, None);
+    assert_eq!(loaded.config().route, settings.edited().route);
+    assert_eq!(loaded.config().dock, settings.edited().dock);
+    assert!(!loaded.route_unsaved());
+}
+
+#[test]
+fn an_invalid_saved_route_point_empties_the_route() {
+    let mut bytes = [&MAGIC[..], &[VERSION]].concat();
+    for point in ["1,1,0,0,0,0,task", "2,1,0,0,0,0,flying"] {
+        bytes.push(ROUTE_ID);
+        bytes.push(point.len() as u8);
+        bytes.extend_from_slice(point.as_bytes());
+    }
+    let (loaded, problem) = Settings::parse(Config::default(), &bytes);
+    assert_eq!(problem, Some(LoadProblem::InvalidRoute));
+    assert!(problem.unwrap().is_loss());
+    assert!(loaded.config().route.is_empty());
 }

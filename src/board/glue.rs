@@ -113,7 +113,10 @@ pub async fn network_watch_task(stack: Stack<'static>) -> ! {
                 Some(Cidr {
                     address: [a, b, c, d],
                     prefix_len,
-                }) => board_log!(info, "network up: {}.{}.{}.{}/{}", a, b, c, d, prefix_len),
+                }) => {
+                    board_log!(info, "network up: {}.{}.{}.{}/{}", a, b, c, d, prefix_len);
+                    board_log!(info, "web page: http://{}.{}.{}.{}/", a, b, c, d);
+                }
                 None => board_log!(info, "network up"),
             }
             SHARED.set_board_address(address);

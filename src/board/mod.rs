@@ -30,6 +30,10 @@ pub use qemu_mps2_an386::run;
 #[cfg(any(feature = "board-nucleo-f767zi", feature = "board-qemu-mps2-an386"))]
 pub mod net;
 
+// The status and settings page's server, on the same stack.
+#[cfg(any(feature = "board-nucleo-f767zi", feature = "board-qemu-mps2-an386"))]
+mod web;
+
 // Without this, naming `_firmware` alone would fail later with unresolved `board::run`.
 #[cfg(not(any(feature = "board-nucleo-f767zi", feature = "board-qemu-mps2-an386")))]
 compile_error!("enable one board feature, such as `board-nucleo-f767zi`");

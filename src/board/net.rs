@@ -28,8 +28,9 @@ pub const IDLE_TIMEOUT: Duration = Duration::from_secs(10);
 /// Reconnection delays: quick after a blip, at most every 5 s while the robot is away.
 pub const BACKOFF: Backoff = Backoff::new(Duration::from_millis(250), Duration::from_secs(5));
 
-/// Sockets of the stack: the three connections to the robot and DHCP.
-pub const SOCKETS: usize = 4;
+/// Sockets of the stack: the three connections to the robot, DHCP and the web page's
+/// server tasks.
+pub const SOCKETS: usize = 4 + super::web::TASKS;
 
 /// One TCP socket's buffers: room for a whole answer and a whole request.
 pub struct SocketBuffers {

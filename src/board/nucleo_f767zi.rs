@@ -10,7 +10,9 @@
 //!   the RNG, and three TCP connections to the robot ([`super::net`]). The MAC address is
 //!   locally administered and derived from the chip's unique ID, so it is stable per board
 //!   (DHCP reservations work) and unique between boards.
-//! - **Buttons**: 14 GPIO inputs with the MCU's pull-ups, pressed = low (a button connects its
+//! - **Web page**: the status and settings page on port 80 ([`super::web`]); its address is
+//!   logged when the network comes up.
+//! - **Buttons**: 15 GPIO inputs with the MCU's pull-ups, pressed = low (a button connects its
 //!   pin to GND), sampled every 2 ms and debounced ([`buttons`]). The `estop` switch may be
 //!   wired normally closed instead (setting `estop-input nc`): then a broken wire reads as
 //!   pressed.
@@ -21,7 +23,7 @@
 //!
 //! # Pin map
 //!
-//! All 14 buttons sit on the right-hand column of the Zio connector CN10 (the even pins),
+//! All 15 buttons sit on the right-hand column of the Zio connector CN10 (the even pins),
 //! with a GND pin (CN10-22) among them for the common return. None of these pins is used by
 //! the Ethernet RMII (PA1, PA2, PA7, PB13, PC1, PC4, PC5, PG11, PG13), the console (USART3,
 //! PD8/PD9, the ST-LINK's virtual COM port), USB OTG FS (PA8–PA12, PG6, PG7), the user LEDs
@@ -45,6 +47,7 @@
 //! | `light` | PE12 | 26 | D39 |
 //! | `dock` | PE14 | 28 | D38 |
 //! | `cancel` | PE15 | 30 | D37 |
+//! | `patrol` | PB10 | 32 | D36 |
 //!
 //! | LED | pin | shows |
 //! |---|---|---|
@@ -95,6 +98,7 @@ use self::settings_flash::SettingsFlash;
 use self::watchdog::watchdog_task;
 use super::glue;
 use super::net::{self, SOCKETS};
+use super::web;
 
 // Log lines carry the uptime in microseconds. Defined here rather than by embassy-time's
 // `defmt-timestamp-uptime` feature, which would put defmt into every board's image.
@@ -166,6 +170,7 @@ pub async fn run(spawner: Spawner) -> ! {
         p.PE12.into(), // light
         p.PE14.into(), // dock
         p.PE15.into(), // cancel
+        p.PB10.into(), // patrol
     ]);
 
     // The seed picks TCP ports and initial sequence numbers: after a reset, the robot must not
@@ -213,6 +218,7 @@ pub async fn run(spawner: Spawner) -> ! {
     spawner.spawn(unwrap!(console_task(
         console_rx, console_tx, store, settings, problem
     )));
+    unwrap!(web::spawn(spawner, stack));
 
     glue::run_app(stack, &config).await
 }

@@ -4,9 +4,11 @@ use core::fmt::Write as _;
 
 use embassy_time::{Duration, Instant};
 
-use super::{Answer, names};
+use super::Answer;
 use crate::app::Snapshot;
 use crate::panel::indicators::LinkState;
+use crate::proto::xml::number::parse_f32;
+use crate::settings::route::{DEFAULT_POINT_INFO, MAX_ROUTE, RoutePoint, parse_point_info};
 use crate::settings::text::NONE;
 use crate::settings::{Key, LoadProblem, Settings, write_f32};
 
@@ -33,6 +35,11 @@ unset KEY                back to the default (`save` keeps it)
 save                     keep the changes in flash and use them (not while moving)
 status                   connection, robot, battery, motion state, last fault
 dock here [MAP [POINT]]  the robot's pose now is the dock point, saved at once
+route show               the patrol route, point by point
+route add here [TYPE]    the robot's pose now as the route's next point
+route add X Y Z YAW [TYPE]  a point at that pose (m, rad); TYPE: transition, task
+                         (default), standing, charging
+route clear              no route (`save` keeps any route change)
 reboot                   restart the panel (network and button settings apply then)
 ";
 
@@ -57,6 +64,7 @@ pub fn execute(
         "save" if rest.is_empty() => Action::Save,
         "status" if rest.is_empty() => status(settings, snapshot, now, answer),
         "dock" => dock(rest, settings, snapshot, now, answer),
+        "route" => route(rest, settings, snapshot, now, answer),
         "reboot" if rest.is_empty() => {
             if !settings.unsaved().is_empty() {
                 let _ = writeln!(answer, "changes not saved are dropped");
@@ -89,9 +97,13 @@ pub fn tell_load_problem(problem: LoadProblem, answer: &mut Answer) {
         ),
         LoadProblem::InvalidValues(keys) => {
             let _ = write!(answer, "saved values not valid any more, defaults used: ");
-            names(keys, answer);
+            let _ = write!(answer, "{keys}");
             writeln!(answer)
         }
+        LoadProblem::InvalidRoute => writeln!(
+            answer,
+            "the saved route is not valid any more: the route is empty (the fault LED blinks)"
+        ),
         LoadProblem::UnknownKeys(count) => writeln!(
             answer,
             "{count} saved settings are unknown to this firmware (a newer one saved them); \
@@ -262,7 +274,7 @@ fn status(
     let unsaved = settings.unsaved();
     if !unsaved.is_empty() {
         let _ = write!(answer, "unsaved    ");
-        names(unsaved, answer);
+        let _ = write!(answer, "{unsaved}");
         let _ = writeln!(answer);
     }
     Action::Answered
@@ -292,22 +304,12 @@ fn dock(
         let _ = writeln!(answer, "usage: dock here [MAP [POINT]] (whole numbers)");
         return Action::Answered;
     };
-    let status = snapshot
-        .and_then(|s| s.status)
-        .filter(|s| now.saturating_duration_since(s.at) <= POSE_MAX_AGE)
-        .filter(|s| !s.value.is_unavailable());
-    let Some(status) = status else {
-        let _ = writeln!(
-            answer,
-            "no fresh status from the robot (none within {} s): is it connected?",
-            POSE_MAX_AGE.as_secs()
-        );
+    let Some(pose) = robot_pose(snapshot, now, answer) else {
         return Action::Answered;
     };
-    let pose = status.value;
     let mut text = heapless::String::<96>::new();
     let _ = write!(text, "{point},{map}");
-    for value in [pose.pos_x, pose.pos_y, pose.pos_z, pose.yaw] {
+    for value in pose {
         let _ = text.push(',');
         let _ = write_f32(&mut text, value);
     }
@@ -320,6 +322,142 @@ fn dock(
     }
     let _ = writeln!(answer, "dock = {text} (the robot's pose now)");
     Action::Save
+}
+
+/// The pose (PosX, PosY, PosZ, Yaw) of a readable status at most [`POSE_MAX_AGE`] old, or
+/// an answer saying there is none.
+fn robot_pose(snapshot: Option<&Snapshot>, now: Instant, answer: &mut Answer) -> Option<[f32; 4]> {
+    let status = snapshot
+        .and_then(|s| s.status)
+        .filter(|s| now.saturating_duration_since(s.at) <= POSE_MAX_AGE)
+        .filter(|s| !s.value.is_unavailable());
+    let Some(status) = status else {
+        let _ = writeln!(
+            answer,
+            "no fresh status from the robot (none within {} s): is it connected?",
+            POSE_MAX_AGE.as_secs()
+        );
+        return None;
+    };
+    let s = status.value;
+    Some([s.pos_x, s.pos_y, s.pos_z, s.yaw])
+}
+
+/// `route show`, `route clear`, `route add here [TYPE]`, `route add X Y Z YAW [TYPE]`.
+fn route(
+    rest: &str,
+    settings: &mut Settings,
+    snapshot: Option<&Snapshot>,
+    now: Instant,
+    answer: &mut Answer,
+) -> Action {
+    let mut words = rest.split_ascii_whitespace();
+    match (words.next(), words.next()) {
+        (Some("show"), None) => show_route(settings, answer),
+        (Some("clear"), None) => {
+            settings.clear_route();
+            let _ = writeln!(answer, "route cleared (not saved: `save` keeps it)");
+        }
+        (Some("add"), Some(first)) => {
+            let (pose, kind) = if first == "here" {
+                let Some(pose) = robot_pose(snapshot, now, answer) else {
+                    return Action::Answered;
+                };
+                (pose, words.next())
+            } else {
+                let mut pose = [0.0; 4];
+                let mut numbers = core::iter::once(first).chain(&mut words);
+                for value in &mut pose {
+                    match numbers.next().map(|w| parse_f32(w.as_bytes())) {
+                        Some(Ok(v)) => *value = v,
+                        _ => {
+                            let _ = writeln!(answer, "usage: {ROUTE_ADD_USAGE}");
+                            return Action::Answered;
+                        }
+                    }
+                }
+                (pose, words.next())
+            };
+            add_route_point(settings, pose, kind, words.next(), answer);
+        }
+        _ => {
+            let _ = writeln!(
+                answer,
+                "usage: route show | route clear | route add here [TYPE] | {ROUTE_ADD_USAGE}"
+            );
+        }
+    }
+    Action::Answered
+}
+
+/// How `route add` with coordinates is typed.
+const ROUTE_ADD_USAGE: &str =
+    "route add X Y Z YAW [TYPE] (TYPE: transition, task, standing or charging)";
+
+/// Adds a point at `pose` of type `kind` (default task) to the edited route, numbered after
+/// the last one and on its map (the dock's map for a first point, else 1).
+fn add_route_point(
+    settings: &mut Settings,
+    pose: [f32; 4],
+    kind: Option<&str>,
+    extra: Option<&str>,
+    answer: &mut Answer,
+) {
+    let info = match kind.map(parse_point_info) {
+        None => DEFAULT_POINT_INFO,
+        Some(Some(info)) if extra.is_none() => info,
+        Some(_) => {
+            let _ = writeln!(answer, "usage: {ROUTE_ADD_USAGE}");
+            return;
+        }
+    };
+    let edited = settings.edited();
+    let map = edited
+        .route
+        .last()
+        .map(|p| p.map)
+        .or(edited.dock.map(|d| d.map_id))
+        .unwrap_or(1);
+    let number = edited.route.len() as i32 + 1;
+    let point = RoutePoint {
+        point: number,
+        map,
+        pose,
+        info,
+    };
+    if point.nav_point().validate().is_err() {
+        let _ = writeln!(answer, "not a valid point: the numbers must be finite");
+        return;
+    }
+    if settings.add_route_point(point).is_err() {
+        let _ = writeln!(
+            answer,
+            "the route is full ({MAX_ROUTE} points); nothing added"
+        );
+        return;
+    }
+    let _ = write!(answer, "point {number}: ");
+    let _ = point.write(answer);
+    let _ = writeln!(answer, " (not saved: `save` keeps it)");
+}
+
+/// `route show`.
+fn show_route(settings: &Settings, answer: &mut Answer) {
+    let route = &settings.edited().route;
+    if route.is_empty() {
+        let _ = writeln!(
+            answer,
+            "no route: `route add here` at each point, then `save`"
+        );
+    }
+    for point in route {
+        let _ = write!(answer, "{:>2}. ", point.point);
+        let _ = point.write(answer);
+        let _ = writeln!(answer);
+    }
+    if settings.route_unsaved() {
+        let _ = writeln!(answer, "(not saved: `save` keeps it)");
+    }
 }
 
 /// The key named `name`, or an answer saying there is none.

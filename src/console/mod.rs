@@ -13,7 +13,7 @@
 //! holds the buttons or the robot's connections up. A save erases flash now and then, which
 //! stalls the whole chip on some boards, so it is refused while anything a person does
 //! could be delayed by it: a stop going out, a motion button held, a navigation task
-//! running ([`Busy`]).
+//! running ([`Busy`](crate::panel::Busy)).
 
 pub mod commands;
 pub mod line;
@@ -29,7 +29,7 @@ use embassy_futures::select::{Either, select};
 use crate::app::Shared;
 use crate::settings::desk::{self, Desk, Refused, Saved};
 use crate::settings::store::Store;
-use crate::settings::{Key, Keys, LoadProblem, Settings};
+use crate::settings::{Key, LoadProblem, Settings};
 use commands::Action;
 use line::{Input, LineEditor};
 
@@ -154,7 +154,7 @@ async fn web_save<F: NorFlash>(
         *settings = typed;
     } else if !typed.unsaved().is_empty() {
         let _ = write!(answer, "changes typed here and not saved were dropped: ");
-        names(typed.unsaved(), answer);
+        let _ = write!(answer, "{}", typed.unsaved());
         let _ = writeln!(answer);
     }
     desk.answer(result);
@@ -180,8 +180,14 @@ pub fn tell_saved(result: &Result<Saved, Refused>, settings: &Settings, answer: 
             return;
         }
     };
-    let _ = write!(answer, "saved ");
-    names(saved.keys, answer);
+    let _ = write!(answer, "saved {}", saved.keys);
+    if saved.route {
+        let _ = answer.push_str(if saved.keys.is_empty() {
+            "route"
+        } else {
+            ", route"
+        });
+    }
     let _ = write!(answer, " in {} ms", saved.took.as_millis());
     // A field engineer sees what an erase costs on this board (it stalls some chips).
     match saved.erases {
@@ -221,12 +227,5 @@ impl Key {
             self,
             Self::Dhcp | Self::Ip | Self::Gateway | Self::Debounce | Self::EstopInput
         )
-    }
-}
-
-/// The keys of `keys` by name, for messages.
-pub fn names(keys: Keys, answer: &mut Answer) {
-    for (i, key) in keys.iter().enumerate() {
-        let _ = write!(answer, "{}{}", if i > 0 { ", " } else { "" }, key.name());
     }
 }

@@ -10,7 +10,7 @@ use crate::config::MotionSpeeds;
 use crate::proto::message::{Direction, MotionCommand};
 
 /// How many buttons the panel has.
-pub const BUTTON_COUNT: usize = 14;
+pub const BUTTON_COUNT: usize = 15;
 
 /// A button of the panel, in the order of docs/design.md, "Panel behaviour".
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -44,6 +44,8 @@ pub enum Button {
     Dock,
     /// Cancel the navigation task (Type 1004).
     Cancel,
+    /// Walk the saved route, point after point (a 1003 each).
+    Patrol,
 }
 
 impl Button {
@@ -63,6 +65,7 @@ impl Button {
         Self::Light,
         Self::Dock,
         Self::Cancel,
+        Self::Patrol,
     ];
 
     /// The button's name on the virtual panel, such as `turn-left`.
@@ -82,6 +85,7 @@ impl Button {
             Self::Light => "light",
             Self::Dock => "dock",
             Self::Cancel => "cancel",
+            Self::Patrol => "patrol",
         }
     }
 

@@ -29,6 +29,11 @@
 //! - **Navigation.** `stop` ends a running task with a 1004 as well as zero velocity (the
 //!   robot refuses motion during a task); a motion press cancels it first; `dock` without a
 //!   configured charging point does nothing but blink the fault LED.
+//! - **Patrol.** `patrol` walks the saved route: a 1003 per point, the next one as soon as
+//!   the robot reports the previous reached. Every stop rule holds: a motion press, `stop`
+//!   or `cancel` ends it with a 1004, an e-stop ends it (the robot fails the running point),
+//!   a failed, cancelled or lost point ends it with a fault blink, and it never resumes by
+//!   itself after an outage. Without a route it only blinks the fault LED.
 //! - **Gait** cycles from the robot's reported `GaitState`, not from a local counter.
 
 use embassy_time::{Duration, Instant};
@@ -38,9 +43,11 @@ use super::ConnectionState;
 use super::buttons::{Button, ButtonEvent};
 use super::next_after;
 use crate::client::{ClientError, Health};
-use crate::config::{Config, LightPresets, MotionSpeeds};
+use crate::config::{Config, LightPresets, MotionSpeeds, Route};
 use crate::proto::codes::{GaitState, LocalizationResult, MotionGait, MotionState, NavOutcome};
-use crate::proto::message::{Light, MotionCommand, NavPoint, NavTask, Request, Response};
+use crate::proto::message::{
+    Light, MotionCommand, NavPoint, NavResult, NavTask, Request, Response,
+};
 
 /// How long a press stays fresh: one not acted on by then is dropped, never sent late.
 pub const STALE_PRESS: Duration = Duration::from_millis(300);
@@ -74,6 +81,29 @@ pub fn succeeded(response: &Response) -> bool {
         | Response::MotorTemperatures(_)
         | Response::Battery(_)
         | Response::Perception(_) => true,
+    }
+}
+
+/// How a navigation task (one 1003) ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TaskEnd {
+    /// The robot reached the point.
+    Reached,
+    /// The robot reports the task cancelled (by this panel or another client).
+    Cancelled,
+    /// The task failed, or its answer was lost with its connection.
+    Failed,
+}
+
+impl TaskEnd {
+    /// How the task ended by its answer, or its loss.
+    pub fn of(end: Result<&NavResult, &ClientError>) -> Self {
+        match end.map(|result| result.outcome) {
+            Ok(NavOutcome::Succeeded) => Self::Reached,
+            Ok(NavOutcome::Cancelled) => Self::Cancelled,
+            Ok(_) | Err(_) => Self::Failed,
+        }
     }
 }
 
@@ -171,6 +201,10 @@ pub struct Control {
     lights: LightPresets,
     /// The dock's charging point, if one is configured.
     dock: Option<NavPoint>,
+    /// The saved patrol route.
+    route: Route,
+    /// The route point the patrol is at (ordered or walking to), while a patrol runs.
+    patrol: Option<usize>,
     /// Repeat period of a held motion button.
     repeat: Duration,
     /// Motion buttons held since a press that was accepted, oldest first; the last one drives.
@@ -206,6 +240,8 @@ impl Control {
         self.speeds = config.speeds;
         self.lights = config.lights.clone();
         self.dock = config.dock;
+        // A save is refused while a task runs, so no patrol walks the old route.
+        self.route = config.route.clone();
         self.repeat = config.motion_repeat;
     }
 
@@ -216,6 +252,8 @@ impl Control {
             speeds: config.speeds,
             lights: config.lights.clone(),
             dock: config.dock,
+            route: config.route.clone(),
+            patrol: None,
             repeat: config.motion_repeat,
             held: Vec::new(),
             next_repeat: None,
@@ -271,6 +309,7 @@ impl Control {
                 // A task not yet sent needs no 1004, but one may run that this panel does not
                 // know of, and cancelling when none runs is harmless (the robot answers success).
                 self.task = Task::Idle;
+                self.patrol = None;
                 self.cancel = Some(at);
             }
             Button::StopStepping => {
@@ -290,7 +329,7 @@ impl Control {
                 None => self.refuse(button, "the robot's gait is not known"),
             },
             Button::Light => self.next_light(at),
-            Button::Dock => self.press_dock(at),
+            Button::Dock | Button::Patrol => self.press_navigation(button, at),
             Button::Forward
             | Button::Backward
             | Button::TurnLeft
@@ -437,7 +476,10 @@ impl Control {
         if !self.task_wanted(id, now) {
             return None;
         }
-        let point = self.dock?;
+        let point = match self.patrol {
+            Some(index) => self.route.get(index)?.nav_point(),
+            None => self.dock?,
+        };
         Some(TaskOrder {
             id,
             task: NavTask::to_point(point),
@@ -449,10 +491,19 @@ impl Control {
     pub fn task_wanted(&mut self, id: u32, now: Instant) -> bool {
         match self.task {
             Task::Ordered { id: ordered, at } if ordered == id => {
-                if self.fresh(at, now, "dock") {
+                let what = if self.patrol.is_some() {
+                    "patrol"
+                } else {
+                    "dock"
+                };
+                // A patrol's next point follows the robot's answer, not a press: it is never
+                // stale (the press that started the patrol was checked).
+                let continuing = self.patrol.is_some_and(|index| index > 0);
+                if continuing || self.fresh(at, now, what) {
                     true
                 } else {
                     self.task = Task::Idle;
+                    self.patrol = None;
                     false
                 }
             }
@@ -471,14 +522,30 @@ impl Control {
         }
     }
 
-    /// Order `id` ended: answered (`ok` if it succeeded or was cancelled) or lost with its
-    /// connection (`ok` false).
-    pub fn task_ended(&mut self, id: u32, outcome: Outcome) {
-        if matches!(self.task, Task::Running { id: running } | Task::Ordered { id: running, .. } if running == id)
-        {
+    /// Order `id` ended at `now`, as `end` says. A patrol goes on to its next point only
+    /// when the robot reached this one; anything else ends it.
+    pub fn task_ended(&mut self, id: u32, end: TaskEnd, now: Instant) {
+        let ours = matches!(self.task, Task::Running { id: running } | Task::Ordered { id: running, .. } if running == id);
+        if ours {
             self.task = Task::Idle;
         }
-        self.last_failed = outcome == Outcome::Failed;
+        // A cancelled task is not a failure: someone meant it.
+        self.last_failed = end == TaskEnd::Failed;
+        let Some(index) = self.patrol.take() else {
+            return;
+        };
+        let next = index + 1;
+        if !ours || end != TaskEnd::Reached {
+            info!("patrol ended at point {} of {}", next, self.route.len());
+            return;
+        }
+        if next < self.route.len() {
+            info!("patrol: point {} of {} reached", next, self.route.len());
+            self.patrol = Some(next);
+            self.order_task(now);
+        } else {
+            info!("patrol: the route is done");
+        }
     }
 
     /// When the last command went out.
@@ -489,6 +556,11 @@ impl Control {
     /// Whether the last command failed or a press was dropped.
     pub fn last_failed(&self) -> bool {
         self.last_failed
+    }
+
+    /// Whether a patrol runs.
+    pub fn patrolling(&self) -> bool {
+        self.patrol.is_some()
     }
 
     /// Whether a navigation task runs or is about to start, as far as the panel knows.
@@ -543,6 +615,8 @@ impl Control {
         };
         self.end_motion();
         self.one_shots.clear();
+        // A running point is left to the robot, which fails it in soft e-stop.
+        self.patrol = None;
         if matches!(self.task, Task::Ordered { .. }) {
             self.task = Task::Idle;
         }
@@ -567,6 +641,7 @@ impl Control {
     /// Ends the panel's navigation task at a press: an order not sent is withdrawn, a running
     /// task is cancelled with a 1004.
     fn end_task(&mut self, at: Instant) {
+        self.patrol = None;
         match self.task {
             Task::Idle => {}
             Task::Ordered { .. } => self.task = Task::Idle,
@@ -617,21 +692,31 @@ impl Control {
         self.next_repeat = None;
     }
 
-    /// `dock` pressed: order the task to the charging point, unless none is configured,
-    /// motion is locked out or a task already runs.
-    fn press_dock(&mut self, at: Instant) {
-        if self.dock.is_none() {
-            return self.refuse(Button::Dock, "no charging point configured (X30_DOCK)");
+    /// `dock` or `patrol` pressed: order the task to the charging point, or the route's
+    /// first point, unless there is none, motion is locked out or a task already runs.
+    fn press_navigation(&mut self, button: Button, at: Instant) {
+        let patrol = button == Button::Patrol;
+        if patrol && self.route.is_empty() {
+            return self.refuse(button, "no route saved");
+        }
+        if !patrol && self.dock.is_none() {
+            return self.refuse(button, "no charging point configured (the dock setting)");
         }
         if self.motion_locked() {
-            return self.refuse(Button::Dock, "motion locked out by estop");
+            return self.refuse(button, "motion locked out by estop");
         }
         if self.navigating() {
-            debug!("dock dropped: a navigation task already runs");
+            debug!("{} dropped: a navigation task already runs", button.name());
             return;
         }
         // The task drives the robot now; repeats would only be refused.
         self.end_motion();
+        self.patrol = patrol.then_some(0);
+        self.order_task(at);
+    }
+
+    /// Orders the next navigation task, as of `at`.
+    fn order_task(&mut self, at: Instant) {
         self.task_ids = self.task_ids.wrapping_add(1);
         self.task = Task::Ordered {
             id: self.task_ids,

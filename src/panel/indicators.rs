@@ -8,7 +8,7 @@
 //!   blinking fast while connected but the robot does not answer (answers overdue, or no
 //!   fresh status), on when connected and answering.
 //! - **activity** (blue): on for [`FLASH`] after each command, steady while a navigation task
-//!   runs.
+//!   runs, blinking while a patrol runs.
 //! - **fault** (red): on while the robot reports a [`Fault`]; otherwise blinking when the
 //!   status cannot be read although connected, when the last command failed, or while the
 //!   saved settings could not be read (the defaults are in use).
@@ -193,14 +193,28 @@ pub fn link_led(link: LinkState, view: &RobotView, now: Instant) -> Led {
     }
 }
 
-/// The activity LED.
-pub fn activity_led(navigating: bool, last_sent: Option<Instant>, now: Instant) -> Led {
+/// What the panel's navigation is doing, for the activity LED.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Navigation {
+    /// No task.
+    Idle,
+    /// A task (`dock`) runs or is about to.
+    Task,
+    /// A patrol runs.
+    Patrol,
+}
+
+/// The activity LED: blinking through a patrol, steady through a task, else a flash per
+/// command.
+pub fn activity_led(navigation: Navigation, last_sent: Option<Instant>, now: Instant) -> Led {
     let flashing =
         last_sent.is_some_and(|at| at <= now && now.saturating_duration_since(at) < FLASH);
-    if navigating || flashing {
-        Led::On
-    } else {
-        Led::Off
+    match navigation {
+        Navigation::Patrol => Led::Blink,
+        Navigation::Task => Led::On,
+        Navigation::Idle if flashing => Led::On,
+        Navigation::Idle => Led::Off,
     }
 }
 
@@ -225,8 +239,8 @@ pub struct Inputs<'a> {
     pub link: LinkState,
     /// The robot's latest answers.
     pub view: &'a RobotView,
-    /// Whether a navigation task runs.
-    pub navigating: bool,
+    /// What the navigation is doing.
+    pub navigation: Navigation,
     /// When the last command was sent.
     pub last_sent: Option<Instant>,
     /// Whether the panel has a failure to show: the last command failed, or the saved
@@ -251,7 +265,7 @@ impl Indicators {
     pub fn derive(inputs: &Inputs<'_>, now: Instant) -> Self {
         Self {
             link: link_led(inputs.link, inputs.view, now),
-            activity: activity_led(inputs.navigating, inputs.last_sent, now),
+            activity: activity_led(inputs.navigation, inputs.last_sent, now),
             fault: fault_led(inputs.link, inputs.view, inputs.panel_failure, now),
         }
     }

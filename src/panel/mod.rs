@@ -2,7 +2,7 @@
 //!
 //! From the buttons upward:
 //!
-//! - [`buttons`]: the fourteen [`Button`]s and a [`Debouncer`] that turns raw pin levels into
+//! - [`buttons`]: the fifteen [`Button`]s and a [`Debouncer`] that turns raw pin levels into
 //!   one press and one release per push.
 //! - [`control`]: [`Control`] turns presses and releases into commands and navigation
 //!   tasks, with stops first, the e-stop latch, motion repeats and nothing sent late.
@@ -22,8 +22,8 @@ pub mod monitor;
 pub mod virtual_panel;
 
 pub use buttons::{Button, ButtonDebouncers, ButtonEvent, Debouncer};
-pub use control::{Control, Outcome, STALE_PRESS, TaskOrder, succeeded};
-pub use indicators::{Fault, Indicators, Led, LinkState};
+pub use control::{Control, Outcome, STALE_PRESS, TaskEnd, TaskOrder, succeeded};
+pub use indicators::{Fault, Indicators, Led, LinkState, Navigation};
 pub use monitor::{Monitor, RobotView, Stamped};
 
 use embassy_time::{Duration, Instant};
@@ -259,23 +259,18 @@ impl Panel {
 
     /// Order `id` ended: its answer, or why there is none.
     pub fn task_ended(&mut self, id: u32, end: Result<&NavResult, &ClientError>, now: Instant) {
-        let outcome = match end {
+        match end {
             Ok(result) => {
                 info!(
                     "navigation task ended: {} ({})",
                     result.outcome.description(),
                     result.status.description()
                 );
-                let answer = Response::NavResult(*result);
-                self.view.update(&answer, now);
-                Outcome::of(Ok(&answer))
+                self.view.update(&Response::NavResult(*result), now);
             }
-            Err(e) => {
-                warn!("navigation task lost: {:?}", e);
-                Outcome::Failed
-            }
-        };
-        self.control.task_ended(id, outcome);
+            Err(e) => warn!("navigation task lost: {:?}", e),
+        }
+        self.control.task_ended(id, TaskEnd::of(end), now);
         self.follow_navigation(now);
     }
 
@@ -339,7 +334,13 @@ impl Panel {
         indicators::Inputs {
             link: self.link_state(),
             view: &self.view,
-            navigating: self.control.navigating(),
+            navigation: if self.control.patrolling() {
+                Navigation::Patrol
+            } else if self.control.navigating() {
+                Navigation::Task
+            } else {
+                Navigation::Idle
+            },
             last_sent: self.control.last_sent(),
             panel_failure: self.control.last_failed() || self.settings_lost,
         }

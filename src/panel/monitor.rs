@@ -313,7 +313,7 @@ impl RobotView {
 }
 
 /// How old an answer polled every `period` may be and still count.
-fn stale_limit(period: Duration) -> Duration {
+pub(crate) fn stale_limit(period: Duration) -> Duration {
     period
         .checked_mul(STALE_AFTER_POLLS)
         .unwrap_or(Duration::MAX)

@@ -33,6 +33,8 @@ pub struct Saved {
     pub erases: u32,
     /// Whether the robot's address changed: the panel reconnects.
     pub moved: bool,
+    /// Whether the route changed.
+    pub route: bool,
 }
 
 /// Why a save did not happen; the settings in effect are unchanged.
@@ -86,7 +88,7 @@ pub fn busy(shared: &Shared) -> Option<Busy> {
 
 /// Whether `settings`' edits may be saved while the panel is `busy` (or not).
 pub fn check(settings: &Settings, busy: Option<Busy>) -> Result<(), Refused> {
-    if settings.unsaved().is_empty() {
+    if settings.unsaved().is_empty() && !settings.route_unsaved() {
         return Err(Refused::NothingChanged);
     }
     settings.check().map_err(Refused::Conflict)?;
@@ -108,6 +110,7 @@ pub async fn save<F: NorFlash>(
     let len = settings.emit(&mut blob).ok_or(Refused::TooLarge)?;
     let mut scratch = [0u8; BUF_LEN];
     let keys = settings.unsaved();
+    let route = settings.route_unsaved();
     let moved = settings.edited().robot != settings.config().robot;
     let started = Instant::now();
     let result = store
@@ -127,6 +130,7 @@ pub async fn save<F: NorFlash>(
         took,
         erases: store.last_save_erases(),
         moved,
+        route,
     })
 }
 

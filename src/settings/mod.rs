@@ -44,6 +44,7 @@
 //! newer firmware) is skipped rather than misread.
 
 pub mod desk;
+pub mod route;
 pub mod store;
 pub mod text;
 
@@ -59,6 +60,7 @@ use crate::proto::message::{Direction, Light, NavPoint, Speed};
 // includes both files side by side).
 use crate::proto::xml::number;
 
+use route::{ROUTE_ID, RoutePoint};
 use store::{BUF_LEN, Store};
 use text::{
     DockText, EstopWiring, LightText, WebPin, lights, optional, parse_cidr, parse_dock, parse_ipv4,
@@ -122,6 +124,19 @@ impl Keys {
     }
 }
 
+/// The names, comma-separated: `speed-forward, dock`.
+impl fmt::Display for Keys {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, key) in self.iter().enumerate() {
+            if i > 0 {
+                f.write_str(", ")?;
+            }
+            f.write_str(key.name())?;
+        }
+        Ok(())
+    }
+}
+
 /// The bit of `key` in [`Keys`].
 fn bit(key: Key) -> u32 {
     1 << (key.id() % 32)
@@ -144,6 +159,8 @@ pub enum LoadProblem {
     /// The blob names keys this firmware does not know (written by a newer one); they are
     /// ignored.
     UnknownKeys(u8),
+    /// A saved route point is not valid (any more): the route is empty.
+    InvalidRoute,
 }
 
 impl LoadProblem {
@@ -243,6 +260,21 @@ impl Settings {
         self.edited.overridden.contains(key)
     }
 
+    /// Whether the edited route differs from the saved one.
+    pub fn route_unsaved(&self) -> bool {
+        self.edited.config.route != self.saved.config.route
+    }
+
+    /// Adds `point` to the end of the edited route; `Err` if the route is full.
+    pub fn add_route_point(&mut self, point: RoutePoint) -> Result<(), RoutePoint> {
+        self.edited.config.route.push(point)
+    }
+
+    /// Empties the edited route.
+    pub fn clear_route(&mut self) {
+        self.edited.config.route.clear();
+    }
+
     /// The keys whose edited value differs from the saved one.
     pub fn unsaved(&self) -> Keys {
         let mut keys = Keys::EMPTY;
@@ -301,6 +333,12 @@ impl Settings {
             blob.push(&[key.id(), value.len() as u8])?;
             blob.push(value.as_bytes())?;
         }
+        for point in &self.edited.config.route {
+            let mut value = heapless::String::<MAX_VALUE>::new();
+            point.write(&mut value).ok()?;
+            blob.push(&[ROUTE_ID, value.len() as u8])?;
+            blob.push(value.as_bytes())?;
+        }
         Some(blob.len)
     }
 
@@ -314,12 +352,18 @@ impl Settings {
         else {
             return (settings, Some(LoadProblem::NotSettings));
         };
-        let (mut invalid, mut unknown) = (Keys::EMPTY, 0u8);
+        let (mut invalid, mut unknown, mut bad_route) = (Keys::EMPTY, 0u8, false);
         while let [id, len, rest @ ..] = entries {
             let Some((value, next)) = rest.split_at_checked(usize::from(*len)) else {
                 return (Self::new(settings.defaults), Some(LoadProblem::NotSettings));
             };
             entries = next;
+            if *id == ROUTE_ID {
+                let text = core::str::from_utf8(value).unwrap_or_default();
+                let added = RoutePoint::parse(text).map(|p| settings.add_route_point(p));
+                bad_route |= !matches!(added, Some(Ok(())));
+                continue;
+            }
             let Some(key) = Key::from_id(*id) else {
                 unknown = unknown.saturating_add(1);
                 continue;
@@ -332,8 +376,13 @@ impl Settings {
         if !entries.is_empty() {
             return (Self::new(settings.defaults), Some(LoadProblem::NotSettings));
         }
+        if bad_route {
+            settings.clear_route();
+        }
         settings.commit();
-        let problem = if !invalid.is_empty() {
+        let problem = if bad_route {
+            Some(LoadProblem::InvalidRoute)
+        } else if !invalid.is_empty() {
             Some(LoadProblem::InvalidValues(invalid))
         } else if unknown > 0 {
             Some(LoadProblem::UnknownKeys(unknown))

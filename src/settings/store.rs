@@ -53,7 +53,7 @@ use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage, SerializationError, Value};
 
 /// Largest settings blob the store holds, bytes.
-pub const BLOB_MAX: usize = 2048;
+pub const BLOB_MAX: usize = 3584;
 
 /// Smallest buffer [`Store::load`] and [`Store::save`] accept, bytes: the largest item's data
 /// rounded up to a flash word, with room for any word size up to 32 bytes.

@@ -8,6 +8,8 @@
 //! - **Network**: the LAN9118 ([`lan9118`]) under embassy-net, DHCP (QEMU's user networking
 //!   gives 10.0.2.15) or the static address the settings give, three TCP connections to the
 //!   robot ([`super::net`]).
+//! - **Web page**: the status and settings page on port 80 ([`super::web`]); `x30-qemu
+//!   --http 127.0.0.1:PORT` forwards a port of the host to it.
 //! - **Time**: two CMSDK timers ([`time`]).
 //! - **Buttons**: text lines on UART0 ([`uart`], `-serial stdio`): `+NAME` press, `-NAME`
 //!   release (`x30_panel::panel::virtual_panel`).
@@ -94,6 +96,7 @@ pub async fn run(spawner: Spawner) -> ! {
     spawner.spawn(
         console_task(console_rx, console_tx, store, settings, problem).expect("console task"),
     );
+    super::web::spawn(spawner, stack).expect("web server tasks");
 
     glue::run_app(stack, &config).await
 }

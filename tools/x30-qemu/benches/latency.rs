@@ -10,6 +10,11 @@
 //! - stop in task: `stop` during a navigation task → 1004;
 //! - e-stop: press → Command 13.
 //!
+//! The healthy robot is measured twice: alone, and while 20 clients load the board's web
+//! page (`GET /` and `GET /api/status` back to back, each on a new connection, as fast as
+//! the board answers) through x30-qemu's `--http`: the page must not delay a stop.
+//! `X30_LATENCY_ROBOTS=TEXT` measures only the robots whose name contains TEXT.
+//!
 //! Both ends are read on this machine's clock: the time the line was written to x30-qemu's
 //! input and the simulator's arrival time of the request, so the figures include the
 //! emulated UART, the firmware and QEMU's user network. It is a report, not a test: it
@@ -18,10 +23,14 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use std::thread::sleep;
-use std::time::Duration;
+use std::io::{Read, Write};
+use std::net::{Ipv4Addr, SocketAddr, TcpListener, TcpStream};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::thread::{self, sleep};
+use std::time::{Duration, Instant};
 
-use common::{Running, Turn, boot_for, far_from_dock, finish, simulator, turn};
+use common::{Running, Turn, boot_with, far_from_dock, finish, simulator, turn};
 use x30_panel::proto::codes::MotionState;
 use x30_sim::{Faults, LogEntry, Simulator};
 
@@ -36,6 +45,8 @@ struct Robot {
     misbehave: fn(&Simulator),
     /// Applied right before each e-stop press.
     before_estop: fn(&Simulator),
+    /// Clients loading the web page all through the measurement.
+    page_clients: usize,
 }
 
 /// What is measured, in the report's column order.
@@ -45,11 +56,18 @@ const MEASURES: [&str; 4] = ["forward", "release", "stop in task", "e-stop"];
 fn as_it_is(_: &Simulator) {}
 
 /// The robots of the report: a healthy one and one per fault of the simulator.
-const ROBOTS: [Robot; 5] = [
+const ROBOTS: [Robot; 6] = [
     Robot {
         name: "healthy",
         misbehave: as_it_is,
         before_estop: as_it_is,
+        page_clients: 0,
+    },
+    Robot {
+        name: "healthy, 20 clients loading the page",
+        misbehave: as_it_is,
+        before_estop: as_it_is,
+        page_clients: 20,
     },
     Robot {
         name: "status answers 1.2 s late",
@@ -60,6 +78,7 @@ const ROBOTS: [Robot; 5] = [
             })
         },
         before_estop: as_it_is,
+        page_clients: 0,
     },
     Robot {
         name: "half-open (reads, never answers)",
@@ -70,6 +89,7 @@ const ROBOTS: [Robot; 5] = [
             })
         },
         before_estop: as_it_is,
+        page_clients: 0,
     },
     Robot {
         name: "refuses the first 2 e-stops",
@@ -80,11 +100,13 @@ const ROBOTS: [Robot; 5] = [
             })
         },
         before_estop: as_it_is,
+        page_clients: 0,
     },
     Robot {
         name: "refuses connections 1 s from e-stop",
         misbehave: as_it_is,
         before_estop: |sim| sim.refuse_connections(Duration::from_secs(1)),
+        page_clients: 0,
     },
 ];
 
@@ -93,6 +115,7 @@ fn main() {
         .ok()
         .and_then(|n| n.parse().ok())
         .unwrap_or(10usize);
+    let only = std::env::var("X30_LATENCY_ROBOTS").unwrap_or_default();
     let Some(turn) = turn() else { return };
     println!(
         "press -> wire latency in QEMU against x30-sim, ms: min / median / max over {presses} presses"
@@ -102,25 +125,44 @@ fn main() {
         print!(" | {measure:>18}");
     }
     println!(" |");
-    for robot in &ROBOTS {
-        let samples = measure(&turn, robot, presses);
+    let mut loads = Vec::new();
+    for robot in ROBOTS.iter().filter(|r| r.name.contains(&only)) {
+        let (samples, load) = measure(&turn, robot, presses);
         print!("| {:38}", robot.name);
         for column in &samples {
             print!(" | {:>18}", summary(column));
         }
         println!(" |");
+        loads.extend(load.map(|load| (robot.name, load)));
+    }
+    for (name, load) in loads {
+        println!(
+            "{name}: {} page and status loads answered, {} failed or refused, in {:.0} s",
+            load.answered,
+            load.failed,
+            load.lasted.as_secs_f64()
+        );
     }
 }
 
 /// Boots the panel against a simulator that misbehaves as `robot` says and measures
-/// `presses` of each kind; seconds per column of [`MEASURES`], `None` for a press that never
-/// showed.
-fn measure(turn: &Turn, robot: &Robot, presses: usize) -> [Vec<Option<f64>>; 4] {
+/// `presses` of each kind, under the page load it asks for; seconds per column of
+/// [`MEASURES`], `None` for a press that never showed, and what the page's clients got.
+fn measure(turn: &Turn, robot: &Robot, presses: usize) -> ([Vec<Option<f64>>; 4], Option<Load>) {
     let sim = simulator();
     far_from_dock(&sim);
     // Each round takes about 5 s, and up to 5 s more per press that never shows.
     let session = Duration::from_secs(60 + 25 * presses as u64);
-    let mut panel = boot_for(turn, &sim, session);
+    let page = SocketAddr::from((Ipv4Addr::LOCALHOST, free_port()));
+    let http = page.to_string();
+    let extra: &[&str] = if robot.page_clients > 0 {
+        &["--http", &http]
+    } else {
+        &[]
+    };
+    let mut panel = boot_with(turn, &sim, session, extra);
+    let clients =
+        (robot.page_clients > 0).then(|| Clients::start(page, robot.page_clients, session));
     let mut columns: [Vec<Option<f64>>; 4] = Default::default();
     for _ in 0..presses {
         (robot.misbehave)(&sim);
@@ -141,8 +183,111 @@ fn measure(turn: &Turn, robot: &Robot, presses: usize) -> [Vec<Option<f64>>; 4] 
         panel.send("-estop");
         recover(&sim);
     }
+    let load = clients.map(Clients::stop);
     finish(panel);
-    columns
+    (columns, load)
+}
+
+/// A free loopback port (free when asked; nothing else on this machine races for it).
+fn free_port() -> u16 {
+    TcpListener::bind((Ipv4Addr::LOCALHOST, 0))
+        .and_then(|listener| listener.local_addr())
+        .expect("a free loopback port")
+        .port()
+}
+
+/// What the page's clients got.
+struct Load {
+    /// Answers read whole.
+    answered: usize,
+    /// Connections refused, reset or timed out.
+    failed: usize,
+    /// How long they ran.
+    lasted: Duration,
+}
+
+/// Threads loading the board's page as fast as it answers, until stopped.
+struct Clients {
+    /// Set to stop them.
+    stop: Arc<AtomicBool>,
+    /// Answers read whole.
+    answered: Arc<AtomicUsize>,
+    /// Loads that failed.
+    failed: Arc<AtomicUsize>,
+    /// The clients.
+    threads: Vec<thread::JoinHandle<()>>,
+    /// When they started.
+    started: Instant,
+}
+
+/// How long one page load may take before it counts as failed.
+const PAGE_LIMIT: Duration = Duration::from_secs(5);
+
+/// Pause after a failed load: a refused connection comes back at once, and retrying at
+/// once would only load this machine's CPU, not the board.
+const RETRY: Duration = Duration::from_millis(20);
+
+impl Clients {
+    /// `count` clients of the page at `page`, each stopping by itself after `limit`.
+    fn start(page: SocketAddr, count: usize, limit: Duration) -> Self {
+        let stop = Arc::new(AtomicBool::new(false));
+        let answered = Arc::new(AtomicUsize::new(0));
+        let failed = Arc::new(AtomicUsize::new(0));
+        let deadline = Instant::now() + limit;
+        let threads = (0..count)
+            .map(|_| {
+                let (stop, answered, failed) = (stop.clone(), answered.clone(), failed.clone());
+                thread::spawn(move || {
+                    for path in ["/", "/api/status"].iter().cycle() {
+                        if stop.load(Ordering::Relaxed) || Instant::now() >= deadline {
+                            break;
+                        }
+                        if load(page, path) {
+                            answered.fetch_add(1, Ordering::Relaxed);
+                        } else {
+                            failed.fetch_add(1, Ordering::Relaxed);
+                            sleep(RETRY);
+                        }
+                    }
+                })
+            })
+            .collect();
+        Self {
+            stop,
+            answered,
+            failed,
+            threads,
+            started: Instant::now(),
+        }
+    }
+
+    /// Stops the clients and says what they got.
+    fn stop(self) -> Load {
+        self.stop.store(true, Ordering::Relaxed);
+        for thread in self.threads {
+            let _ = thread.join();
+        }
+        Load {
+            answered: self.answered.load(Ordering::Relaxed),
+            failed: self.failed.load(Ordering::Relaxed),
+            lasted: self.started.elapsed(),
+        }
+    }
+}
+
+/// Loads `path` from `page` on a new connection; whether a whole `200 OK` answer came
+/// within [`PAGE_LIMIT`].
+fn load(page: SocketAddr, path: &str) -> bool {
+    let Ok(mut stream) = TcpStream::connect_timeout(&page, PAGE_LIMIT) else {
+        return false;
+    };
+    let _ = stream.set_read_timeout(Some(PAGE_LIMIT));
+    let _ = stream.set_write_timeout(Some(PAGE_LIMIT));
+    let request = format!("GET {path} HTTP/1.1\r\nHost: {page}\r\nConnection: close\r\n\r\n");
+    let mut answer = Vec::new();
+    stream.write_all(request.as_bytes()).is_ok()
+        && stream.read_to_end(&mut answer).is_ok()
+        && answer.starts_with(b"HTTP/1.1 200 ")
 }
 
 /// Back to a healthy, standing robot for the next round, as an operator would after an

@@ -69,7 +69,7 @@ struct Cli {
     #[arg(long, value_name = "ELF")]
     firmware: Option<PathBuf>,
     /// Only build the firmware and print the ELF's path.
-    #[arg(long, conflicts_with_all = ["robot", "firmware", "settings"])]
+    #[arg(long, conflicts_with_all = ["robot", "firmware", "settings", "http"])]
     build_only: bool,
     /// The file behind the firmware's settings flash (64 KiB; created if it does not exist,
     /// and an empty file is a blank flash), so that settings saved on the console survive
@@ -77,6 +77,10 @@ struct Cli {
     /// whitespace.
     #[arg(long, value_name = "FILE")]
     settings: Option<PathBuf>,
+    /// Forward this loopback port of the host to the firmware's web page (port 80 in the
+    /// guest), so that a browser here opens it at http://127.0.0.1:PORT/.
+    #[arg(long, value_name = "127.0.0.1:PORT")]
+    http: Option<String>,
     /// The QEMU program.
     #[arg(long, value_name = "PROGRAM", default_value = "qemu-system-arm")]
     qemu: PathBuf,
@@ -114,6 +118,7 @@ fn run(cli: &Cli) -> Result<u8, String> {
     }
     let robot = cli.robot.as_deref().unwrap_or_default();
     let guest_robot = qemu::guest_robot(robot)?;
+    let http = cli.http.as_deref().map(qemu::http_port).transpose()?;
     // Checked before building, so a missing QEMU costs no build time.
     let program = qemu::find(&cli.qemu).ok_or_else(|| {
         format!(
@@ -151,7 +156,14 @@ fn run(cli: &Cli) -> Result<u8, String> {
         .map_err(|e| format!("cannot make a temporary folder: {e}"))?;
     let settings = qemu::settings_file(cli.settings.as_deref(), folder.path())?;
     let console = Console::listen(&folder.path().join("console.sock"))?;
-    let args = qemu::args(&elf, guest_robot, &settings, console.path(), &cli.qemu_args);
+    let args = qemu::args(
+        &elf,
+        guest_robot,
+        &settings,
+        console.path(),
+        http,
+        &cli.qemu_args,
+    );
     eprintln!(
         "x30-qemu: booting {} with {}: robot {robot} is {guest_robot} for the guest, \
          settings in {}",
@@ -159,6 +171,9 @@ fn run(cli: &Cli) -> Result<u8, String> {
         program.display(),
         settings.display()
     );
+    if let Some(port) = http {
+        eprintln!("x30-qemu: the board's web page is at http://127.0.0.1:{port}/");
+    }
     let child = qemu::spawn(&program, &args)
         .map_err(|e| format!("cannot start {}: {e}", program.display()))?;
     // The input is read only once QEMU runs: lines typed earlier wait in the pipe.

@@ -18,24 +18,46 @@ pub const GUEST_HOST: Ipv4Addr = Ipv4Addr::new(10, 0, 2, 2);
 /// exactly that address, so any other robot would be unreachable from the guest, and the
 /// virtual panel is for simulators, never for driving a real robot on the network.
 pub fn guest_robot(robot: &str) -> Result<SocketAddr, String> {
-    let refuse = |why: &str| {
-        Err(format!(
+    let port = loopback_port(robot).map_err(|why| {
+        format!(
             "--robot {robot}: {why}; the virtual panel reaches only a robot on this machine's \
              loopback, 127.0.0.1:PORT (QEMU's user network maps 10.0.2.2 to 127.0.0.1)"
-        ))
-    };
-    let port = match robot.parse::<SocketAddr>() {
+        )
+    })?;
+    Ok(SocketAddr::new(GUEST_HOST.into(), port))
+}
+
+/// The firmware's web page port, in the guest.
+pub const GUEST_HTTP_PORT: u16 = 80;
+
+/// The host port that `--http` forwards to the firmware's web page.
+///
+/// Only `127.0.0.1:PORT` (or `localhost:PORT`) is accepted: the virtual panel's page, and
+/// its settings form, are for this machine alone, never for the network.
+pub fn http_port(http: &str) -> Result<u16, String> {
+    loopback_port(http).map_err(|why| {
+        format!(
+            "--http {http}: {why}; the page is forwarded only to this machine's loopback, \
+             127.0.0.1:PORT"
+        )
+    })
+}
+
+/// The port of `address`, which must be `127.0.0.1:PORT` or `localhost:PORT` with a port
+/// other than 0; else why not.
+fn loopback_port(address: &str) -> Result<u16, &'static str> {
+    let port = match address.parse::<SocketAddr>() {
         Ok(SocketAddr::V4(addr)) if *addr.ip() == Ipv4Addr::LOCALHOST => addr.port(),
-        Ok(_) => return refuse("not 127.0.0.1"),
-        Err(_) => match robot.strip_prefix("localhost:").map(str::parse::<u16>) {
+        Ok(_) => return Err("not 127.0.0.1"),
+        Err(_) => match address.strip_prefix("localhost:").map(str::parse::<u16>) {
             Some(Ok(port)) => port,
-            _ => return refuse("not an address of the form 127.0.0.1:PORT"),
+            _ => return Err("not an address of the form 127.0.0.1:PORT"),
         },
     };
     if port == 0 {
-        return refuse("port 0 is not a listening robot");
+        return Err("port 0 is not a usable port");
     }
-    Ok(SocketAddr::new(GUEST_HOST.into(), port))
+    Ok(port)
 }
 
 /// The longest settings file path the firmware takes, in bytes.
@@ -97,17 +119,18 @@ fn option(prefix: &str, value: &OsStr) -> OsString {
     option
 }
 
-/// QEMU's arguments: the mps2-an386 machine, its LAN9118 on user networking, UART0 on QEMU's
-/// standard input and output, UART1 (the serial console) on the Unix socket `console`
-/// (QEMU connects to it), semihosting passing the robot's address and the settings file as
-/// the firmware's command line, no monitor (its prompt would mix with the output and eat
-/// input), and the firmware ELF. `extra` goes last, so that it can add to or override what
-/// comes before.
+/// QEMU's arguments: the mps2-an386 machine, its LAN9118 on user networking (forwarding
+/// the host's 127.0.0.1:`http` to the web page, if given), UART0 on QEMU's standard input
+/// and output, UART1 (the serial console) on the Unix socket `console` (QEMU connects to
+/// it), semihosting passing the robot's address and the settings file as the firmware's
+/// command line, no monitor (its prompt would mix with the output and eat input), and the
+/// firmware ELF. `extra` goes last, so that it can add to or override what comes before.
 pub fn args(
     elf: &Path,
     guest_robot: SocketAddr,
     settings: &Path,
     console: &Path,
+    http: Option<u16>,
     extra: &[String],
 ) -> Vec<OsString> {
     let mut args: Vec<OsString> = ["-M", "mps2-an386", "-nographic", "-monitor", "none"]
@@ -123,7 +146,11 @@ pub fn args(
         &format!("enable=on,target=native,arg=x30-panel,arg={guest_robot},arg=settings="),
         settings.as_os_str(),
     ));
-    args.extend(["-nic", "user,model=lan9118", "-kernel"].map(OsString::from));
+    let mut nic = String::from("user,model=lan9118");
+    if let Some(port) = http {
+        nic.push_str(&format!(",hostfwd=tcp:127.0.0.1:{port}-:{GUEST_HTTP_PORT}"));
+    }
+    args.extend(["-nic".into(), nic.into(), "-kernel".into()]);
     args.push(elf.into());
     args.extend(extra.iter().map(OsString::from));
     args
@@ -239,6 +266,7 @@ mod tests {
             "10.0.2.2:30001".parse().unwrap(),
             Path::new("/run/settings.bin"),
             Path::new("/tmp/x30-qemu-1/console.sock"),
+            None,
             &["-d".into(), "guest_errors".into()],
         );
         let args: Vec<&str> = args.iter().map(|a| a.to_str().unwrap()).collect();
@@ -253,12 +281,51 @@ mod tests {
     }
 
     #[test]
+    fn the_web_page_is_forwarded_from_a_loopback_port_of_the_host() {
+        assert_eq!(http_port("127.0.0.1:8080"), Ok(8080));
+        assert_eq!(http_port("localhost:18080"), Ok(18080));
+        let args = args(
+            Path::new("/fw/x30-panel"),
+            "10.0.2.2:30001".parse().unwrap(),
+            Path::new("/run/settings.bin"),
+            Path::new("/run/console.sock"),
+            Some(8080),
+            &[],
+        );
+        let args: Vec<&str> = args.iter().map(|a| a.to_str().unwrap()).collect();
+        let nic = args.iter().position(|&a| a == "-nic").expect("-nic");
+        assert_eq!(
+            args[nic + 1],
+            "user,model=lan9118,hostfwd=tcp:127.0.0.1:8080-:80"
+        );
+    }
+
+    #[test]
+    fn web_page_ports_off_loopback_are_refused() {
+        for http in [
+            "0.0.0.0:8080",
+            "192.168.1.10:8080",
+            "127.0.0.2:8080",
+            "[::1]:8080",
+            "8080",
+            "localhost",
+            "127.0.0.1:0",
+            "127.0.0.1:http",
+        ] {
+            let err = http_port(http).unwrap_err();
+            assert!(err.starts_with(&format!("--http {http}:")), "{err}");
+            assert!(err.contains("127.0.0.1:PORT"), "{http}: {err}");
+        }
+    }
+
+    #[test]
     fn commas_in_paths_are_doubled_for_qemu() {
         let args = args(
             Path::new("/fw/x30-panel"),
             "10.0.2.2:30001".parse().unwrap(),
             Path::new("/a,b/settings.bin"),
             Path::new("/t,mp/console.sock"),
+            None,
             &[],
         );
         let args: Vec<&str> = args.iter().map(|a| a.to_str().unwrap()).collect();

@@ -154,6 +154,31 @@ fn a_settings_path_the_firmware_cannot_take_is_refused() {
 }
 
 #[test]
+fn http_forwards_a_loopback_port_to_the_web_page_and_says_where_it_is() {
+    let run = run(
+        "wait led link on",
+        &["--grace-ms", "0", "--http", "127.0.0.1:18080"],
+    );
+    run.expect_code(0)
+        .stderr_has("web page is at http://127.0.0.1:18080/");
+    assert!(
+        fake_args(&run.stdout)
+            .contains(" -nic user,model=lan9118,hostfwd=tcp:127.0.0.1:18080-:80 "),
+        "{run}"
+    );
+}
+
+#[test]
+fn http_off_loopback_is_refused_before_qemu_starts() {
+    for http in ["0.0.0.0:18080", "192.168.1.20:80"] {
+        let run = start(&["--http", http]).finish(LIMIT);
+        run.expect_code(2)
+            .stderr_has(&format!("--http {http}: not 127.0.0.1"));
+        assert!(run.stdout.is_empty(), "{run}");
+    }
+}
+
+#[test]
 fn console_lines_are_typed_in_order_with_the_script() {
     // The fake never connects the console: the line waits, and the run still ends cleanly.
     let run = run(

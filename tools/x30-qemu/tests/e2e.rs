@@ -554,3 +554,86 @@ fn dock_here_then_dock_sends_a_1003_to_the_robots_pose() {
     );
     finish(panel);
 }
+
+/// The 1003 points logged at or after `since`: (Value, PosX, PosY), in order.
+fn nav_points(sim: &Simulator, since: f64) -> Vec<(i32, f32, f32)> {
+    sim.requests()
+        .into_iter()
+        .filter(|e| e.t >= since)
+        .filter_map(|e| match e.request {
+            Some(Request::NavTask(task)) => {
+                task.points.first().map(|p| (p.value, p.pos_x, p.pos_y))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn patrol_walks_a_stored_route_and_stop_ends_it() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+    let from = panel.stdout.len();
+    for line in [
+        "console route add 1 0 0 0",
+        "console route add 2 0 0 0",
+        "console route add 2 1 0 1.5",
+        "console save",
+    ] {
+        panel.send(line);
+    }
+    panel.expect_stdout(from, REACTION, "`saved route in`", |l| {
+        l.starts_with("console: saved route in ")
+    });
+
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+patrol");
+    panel.send("-patrol");
+    let walked = Duration::from_secs(30);
+    assert!(
+        eventually(walked, || nav_points(&sim, pressed).len() == 3
+            && sim.snapshot().task.is_none()),
+        "the route was not walked\n{}",
+        log_text(&sim)
+    );
+    assert_eq!(
+        nav_points(&sim, pressed),
+        [(1, 1.0, 0.0), (2, 2.0, 0.0), (3, 2.0, 1.0)],
+        "one 1003 per point, in order"
+    );
+
+    // Again, and `stop` during the first point: 1004, zero velocity, no next point.
+    sim.robot(|r| r.set_pose(x30_sim::Pose::default()));
+    let again = sim.elapsed().as_secs_f64();
+    panel.send("+patrol");
+    panel.send("-patrol");
+    assert!(
+        eventually(REACTION, || sim.snapshot().task.is_some()),
+        "the patrol did not start\n{}",
+        log_text(&sim)
+    );
+    let stopped = sim.elapsed().as_secs_f64();
+    panel.send("+stop");
+    panel.send("-stop");
+    assert!(
+        eventually(REACTION, || sim
+            .requests()
+            .iter()
+            .any(|e| e.t >= stopped && e.message_type == Some(1004))),
+        "no 1004 after stop\n{}",
+        log_text(&sim)
+    );
+    assert!(
+        first_command(&sim, stopped, 6).is_some(),
+        "no zero velocity"
+    );
+    sleep(Duration::from_secs(3));
+    assert_eq!(
+        nav_points(&sim, again).len(),
+        1,
+        "no point after the stop\n{}",
+        log_text(&sim)
+    );
+    finish(panel);
+}

@@ -77,10 +77,14 @@
 //! - Motion (Type 2): see [`Robot`] for the motion states; translations and rotations
 //!   continue while repeated and stop when a gap between repeats exceeds 400 ms (the
 //!   protocol asks for at least 3 Hz) or on Command 6.
-//! - Navigation (1003): answered when the walk ends (distance / speed), or at once when
-//!   refused; 1004 sends the task's answer (ErrorCode 2, 8962) on the task's connection,
-//!   then at once its own answer: both frames in one write when the task and the cancel
-//!   came on the same connection. A dropped task connection stops the task (41802).
+//! - Navigation (1003): the waypoints of a request (one per `<Items>` block) are walked in
+//!   order; answered once, when the walk ends (distance / speed), or at once when refused,
+//!   with the last waypoint's `Value` on success and the one the robot was walking to on
+//!   failure or cancel. 1007 reports the waypoint being walked to; the log records each
+//!   waypoint set out for ([`TaskEntry`]). 1004 sends the task's answer (ErrorCode 2, 8962)
+//!   on the task's connection, then at once its own answer: both frames in one write when
+//!   the task and the cancel came on the same connection. A dropped task connection stops
+//!   the task (41802).
 //! - Battery (2001): `Current` is positive while discharging, negative while charging.
 //! - Malformed input: Type 0 with ErrorCode 1 (bytes without a sync sequence), 2 (reserved
 //!   bytes not zero), 3 (longer than the longest valid request) or 4 (body not a valid
@@ -110,9 +114,9 @@ use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
 pub use faults::{Declaration, Faults};
-pub use log::{LogEntry, MEMORY_LIMIT};
+pub use log::{LogEntry, MEMORY_LIMIT, TaskEntry};
 pub use outbox::SPLIT_GAP;
-pub use robot::{Pose, Robot, Snapshot};
+pub use robot::{Pose, Robot, Snapshot, TaskEvent};
 pub use server::TICK;
 pub use unsynced::NO_SYNC_QUIET;
 
@@ -259,7 +263,14 @@ impl Simulator {
         log.into_iter().find(|e| e.conn == conn)
     }
 
-    /// Forgets the frames logged in memory so far (the log file keeps them).
+    /// What navigation tasks did (the last [`MEMORY_LIMIT`]), oldest first: each waypoint
+    /// set out for and how each task ended. The log file has these lines too.
+    pub fn task_log(&self) -> Vec<TaskEntry> {
+        self.shared.log.task_entries()
+    }
+
+    /// Forgets the frames and task progress logged in memory so far (the log file keeps
+    /// them).
     pub fn clear_requests(&self) {
         self.shared.log.clear();
     }

@@ -1,10 +1,14 @@
 //! The request log: one entry per frame a client sent, kept in memory and optionally written
-//! to a file as JSON lines.
+//! to a file as JSON lines. Navigation tasks add their progress to it (entries with an
+//! `event` field, kept apart in memory): each waypoint the robot sets out for and how the
+//! task ended, under the connection and message ID of the 1003 request.
 //!
 //! ```json
 //! {"t":1.204,"conn":1,"id":3,"type":2,"command":1,"items":{"Value":-1.0}}
 //! {"t":1.733,"conn":2,"id":0,"type":1003,"command":1,"items":{"Value":7,"MapID":1,...}}
+//! {"t":1.733,"conn":2,"id":0,"event":"waypoint","index":1,"of":1,"value":7}
 //! {"t":2.010,"conn":2,"id":9,"type":1234,"command":1,"error":"decode: UnknownType(1234)"}
+//! {"t":9.751,"conn":2,"id":0,"event":"ended","reached":1,"of":1,"value":7,"error_code":0,"error_status":8960}
 //! ```
 
 use std::collections::VecDeque;
@@ -17,7 +21,7 @@ use serde::Serialize;
 use serde_json::{Map, Number, Value, json};
 use x30_panel::proto::message::{MotionValue, NavPoint, Request};
 
-use crate::robot::ConnId;
+use crate::robot::{ConnId, TaskEvent, TaskProgress};
 use crate::server::lock;
 
 /// Most entries kept in memory; older ones are dropped first, so a simulator left running
@@ -96,6 +100,34 @@ impl LogEntry {
     }
 }
 
+/// A navigation task's progress, as the log records it.
+///
+/// Serialised with the field names `t`, `conn`, `id` (those of the 1003 request), `event`
+/// (`waypoint` or `ended`) and the event's own fields ([`TaskEvent`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TaskEntry {
+    /// Real seconds since the simulator started.
+    pub t: f64,
+    /// The connection the 1003 request came on.
+    pub conn: ConnId,
+    /// The 1003 request's message ID.
+    pub id: u16,
+    /// What happened.
+    #[serde(flatten)]
+    pub event: TaskEvent,
+}
+
+impl From<TaskProgress> for TaskEntry {
+    fn from(p: TaskProgress) -> Self {
+        Self {
+            t: p.at.as_secs_f64(),
+            conn: p.owner.conn,
+            id: p.owner.message_id,
+            event: p.event,
+        }
+    }
+}
+
 /// A request's items as JSON, by element name.
 fn items(request: &Request) -> Value {
     match request {
@@ -167,6 +199,7 @@ fn float(v: f32) -> Value {
 #[derive(Debug)]
 pub(crate) struct RequestLog {
     entries: Mutex<VecDeque<LogEntry>>,
+    tasks: Mutex<VecDeque<TaskEntry>>,
     file: Mutex<Option<File>>,
 }
 
@@ -184,6 +217,7 @@ impl RequestLog {
             .transpose()?;
         Ok(Self {
             entries: Mutex::new(VecDeque::new()),
+            tasks: Mutex::new(VecDeque::new()),
             file: Mutex::new(file),
         })
     }
@@ -191,17 +225,25 @@ impl RequestLog {
     /// Adds an entry; the file gets it as one line in one write, so a reader never sees half
     /// a line and sees each line as soon as it is written.
     pub fn record(&self, entry: LogEntry) {
+        self.write_line(&entry.to_json());
+        push_bounded(&self.entries, entry);
+    }
+
+    /// Adds a task's progress, to the file like a request.
+    pub fn record_task(&self, entry: TaskEntry) {
+        // Serialising plain numbers cannot fail.
+        self.write_line(&serde_json::to_string(&entry).unwrap_or_default());
+        push_bounded(&self.tasks, entry);
+    }
+
+    /// Writes one line to the file, if there is one.
+    fn write_line(&self, json: &str) {
         if let Some(file) = lock(&self.file).as_mut() {
-            let mut line = entry.to_json().into_bytes();
+            let mut line = json.as_bytes().to_vec();
             line.push(b'\n');
             // A full disk must not stop the simulator answering; the memory log still has it.
             let _ = file.write_all(&line).and_then(|()| file.flush());
         }
-        let mut entries = lock(&self.entries);
-        if entries.len() >= MEMORY_LIMIT {
-            entries.pop_front();
-        }
-        entries.push_back(entry);
     }
 
     /// Every entry kept in memory, oldest first.
@@ -209,10 +251,25 @@ impl RequestLog {
         lock(&self.entries).iter().cloned().collect()
     }
 
-    /// Forgets the entries kept in memory (the file keeps them).
+    /// Every task entry kept in memory, oldest first.
+    pub fn task_entries(&self) -> Vec<TaskEntry> {
+        lock(&self.tasks).iter().copied().collect()
+    }
+
+    /// Forgets the entries kept in memory, task entries included (the file keeps them).
     pub fn clear(&self) {
         lock(&self.entries).clear();
+        lock(&self.tasks).clear();
     }
+}
+
+/// Appends to an in-memory log, dropping the oldest entry beyond [`MEMORY_LIMIT`].
+fn push_bounded<T>(log: &Mutex<VecDeque<T>>, entry: T) {
+    let mut entries = lock(log);
+    if entries.len() >= MEMORY_LIMIT {
+        entries.pop_front();
+    }
+    entries.push_back(entry);
 }
 
 #[cfg(test)]
@@ -252,6 +309,44 @@ mod tests {
     }
 
     #[test]
+    fn task_entries() {
+        use crate::robot::Requester;
+        let progress = TaskProgress {
+            owner: Requester {
+                conn: 2,
+                message_id: 5,
+            },
+            at: std::time::Duration::from_millis(1500),
+            event: TaskEvent::Waypoint {
+                index: 2,
+                of: 4,
+                value: 7,
+            },
+        };
+        let json = serde_json::to_string(&TaskEntry::from(progress)).unwrap();
+        assert_eq!(
+            json,
+            r#"{"t":1.5,"conn":2,"id":5,"event":"waypoint","index":2,"of":4,"value":7}"#
+        );
+        let ended = TaskEvent::Ended {
+            reached: 1,
+            of: 4,
+            value: 7,
+            error_code: 1,
+            error_status: 41804,
+        };
+        let json = serde_json::to_string(&TaskEntry {
+            event: ended,
+            ..TaskEntry::from(progress)
+        })
+        .unwrap();
+        assert!(
+            json.ends_with(r#""event":"ended","reached":1,"of":4,"value":7,"error_code":1,"error_status":41804}"#),
+            "{json}"
+        );
+    }
+
+    #[test]
     fn failure_entry() {
         let entry = LogEntry::failure(0.25, 3, None, None, "frame: Garbage".into());
         assert_eq!(
@@ -271,5 +366,6 @@ mod tests {
         assert_eq!(entries[0].t, 3.0);
         log.clear();
         assert!(log.entries().is_empty());
+        assert!(log.task_entries().is_empty());
     }
 }

@@ -59,9 +59,18 @@ struct Cli {
     /// XML declaration of answers.
     #[arg(long, value_enum, default_value_t = DeclarationArg::Double)]
     declaration: DeclarationArg,
-    /// Write every received frame to FILE as JSON lines.
+    /// Write every received frame to FILE as JSON lines, with the progress of navigation
+    /// tasks (each waypoint set out for, how each task ended).
     #[arg(long, value_name = "FILE")]
     log: Option<PathBuf>,
+    /// Make waypoints with this Value unreachable: a navigation task fails with ErrorStatus
+    /// 41804 (global path planning failed) when it sets out for one (repeatable).
+    #[arg(
+        long = "unreachable",
+        value_name = "VALUE",
+        allow_negative_numbers = true
+    )]
+    unreachable: Vec<i32>,
 }
 
 /// `--declaration` values.
@@ -143,6 +152,7 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    sim.robot(|r| r.set_unreachable_points(&cli.unreachable));
     println!("x30-sim listening on {}", sim.addr());
     // Scripts wait for this line; make sure it leaves even when stdout is a pipe.
     let _ = std::io::stdout().flush();

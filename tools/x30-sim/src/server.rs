@@ -135,15 +135,18 @@ impl Shared {
     }
 
     /// Brings the robot up to now, runs `f` on it, and sends the answers of any tasks that
-    /// ended meanwhile (after letting go of the robot).
+    /// ended meanwhile and logs what tasks did (after letting go of the robot).
     pub fn with_robot<R>(&self, f: impl FnOnce(&mut Robot, Duration) -> R) -> R {
         let now = self.now();
-        let (result, ended) = {
+        let (result, ended, events) = {
             let mut robot = lock(&self.robot);
             robot.advance(now);
             let result = f(&mut robot, now);
-            (result, robot.take_ended())
+            (result, robot.take_ended(), robot.take_task_events())
         };
+        for event in events {
+            self.log.record_task(event.into());
+        }
         self.deliver(ended);
         result
     }

@@ -8,7 +8,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::*;
-use x30_panel::proto::codes::{CommandResult, MotionState};
+use x30_panel::proto::codes::{CommandResult, MotionState, NavOutcome, PointInfo};
 use x30_panel::proto::message::{MotionCommand, Request, Response};
 
 /// Kills the child this test started when the test ends, however it ends.
@@ -147,4 +147,29 @@ fn refuse_for_ms() {
         client.request(&Request::Battery),
         Response::Battery(_)
     ));
+}
+
+#[test]
+fn unreachable_points_fail_tasks_with_41804() {
+    let (_running, addr) = spawn(&[
+        "--time-scale",
+        "20",
+        "--unreachable",
+        "7",
+        "--unreachable",
+        "-2",
+    ]);
+    let mut client = Client::connect(addr);
+    for value in [7, -2] {
+        let id = client.start_task(&[point(value, 1.0, 0.0, PointInfo::Task)]);
+        let result = client.task_result(id, TIMEOUT);
+        assert_eq!(result.value, value);
+        assert_nav(&result, NavOutcome::Failed, 41804);
+    }
+    let id = client.start_task(&[point(8, 1.0, 0.0, PointInfo::Task)]);
+    assert_nav(
+        &client.task_result(id, TIMEOUT),
+        NavOutcome::Succeeded,
+        8960,
+    );
 }

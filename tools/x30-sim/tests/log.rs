@@ -53,9 +53,22 @@ fn json_lines_while_running() {
     b.send_raw(&raw_frame(66, b"<PatrolDevice>"));
     b.recv();
 
-    // Read while the simulator still runs: every line is already there.
-    let lines = read_lines(&path);
-    assert_eq!(lines.len(), 4, "{lines:#?}");
+    // Read while the simulator still runs: every line is already there. The task's progress
+    // (set out for its one waypoint, ended) follows its request.
+    let all = read_lines(&path);
+    let (progress, lines): (Vec<Value>, Vec<Value>) =
+        all.iter().cloned().partition(|l| l.get("event").is_some());
+    assert_eq!(lines.len(), 4, "{all:#?}");
+    assert_eq!(all[3], progress[0], "{all:#?}");
+    assert_eq!(
+        progress,
+        [
+            serde_json::json!({"t": progress[0]["t"], "conn": 2, "id": 0, "event": "waypoint",
+                "index": 1, "of": 1, "value": 12}),
+            serde_json::json!({"t": progress[1]["t"], "conn": 2, "id": 0, "event": "ended",
+                "reached": 1, "of": 1, "value": 12, "error_code": 0, "error_status": 8960}),
+        ]
+    );
     let motion = &lines[0];
     assert_eq!(motion["conn"], 1);
     assert_eq!(motion["id"], 0);
@@ -100,7 +113,7 @@ fn json_lines_while_running() {
         bad["error"].as_str().unwrap().starts_with("decode:"),
         "{bad}"
     );
-    let times: Vec<f64> = lines.iter().map(|l| l["t"].as_f64().unwrap()).collect();
+    let times: Vec<f64> = all.iter().map(|l| l["t"].as_f64().unwrap()).collect();
     assert!(times.windows(2).all(|w| w[0] <= w[1]), "{times:?}");
 
     // The same entries in memory, with the decoded requests.
@@ -115,8 +128,12 @@ fn json_lines_while_running() {
     );
     assert_eq!(entries[2].conn, 2);
     assert!(entries[3].error.is_some());
+    let tasks = sim.task_log();
+    assert_eq!(tasks.len(), 2);
+    assert_eq!(serde_json::to_value(tasks[1]).unwrap(), progress[1]);
     sim.clear_requests();
     assert!(sim.requests().is_empty());
+    assert!(sim.task_log().is_empty());
     drop(sim);
     let _ = std::fs::remove_file(&path);
 }

@@ -11,6 +11,7 @@ use x30_panel::proto::codes::{
     NavTaskStatus, OnDockState, PointInfo, Terrain,
 };
 use x30_panel::proto::message::{Direction, MotionCommand, NavPoint, Request, Response, Speed};
+use x30_sim::TaskEvent;
 
 fn ms(n: u64) -> Duration {
     Duration::from_millis(n)
@@ -106,6 +107,128 @@ fn waypoints_are_walked_in_order() {
     assert_eq!((pose.x, pose.y), (3.0, 4.0));
     // A transition point keeps the robot stepping.
     assert_eq!(client.status().motion_state, MotionState::Stepping);
+}
+
+/// A request with several `<Items>` blocks is one task: answered once, when the last
+/// waypoint is reached, with its `Value`; 1007 and the log follow it point by point.
+#[test]
+fn a_multi_point_task_is_answered_once_and_logged_point_by_point() {
+    let sim = start(20.0);
+    let mut client = Client::connect(sim.addr());
+    let mut monitor = Client::connect(sim.addr());
+    // 2 m, 2 m and 2 m at 0.5 m/s: 12 s simulated, 0.6 s real.
+    let points = [
+        point(101, 2.0, 0.0, PointInfo::Transition),
+        point(102, 2.0, 2.0, PointInfo::Transition),
+        point(103, 0.0, 2.0, PointInfo::Standing),
+    ];
+    let id = client.start_task(&points);
+    let mut seen = Vec::new();
+    assert!(wait_until(ms(5000), || {
+        let state = monitor.nav_status();
+        if state.status == NavTaskStatus::Running && seen.last() != Some(&state.value) {
+            seen.push(state.value);
+        }
+        seen.last() == Some(&103)
+    }));
+    assert!(seen.windows(2).all(|w| w[0] < w[1]), "in order: {seen:?}");
+    let result = client.task_result(id, ms(10_000));
+    assert_eq!(result.value, 103);
+    assert_nav(&result, NavOutcome::Succeeded, 8960);
+    assert!(
+        client.recv_within(ms(200)).is_none(),
+        "one answer for the task"
+    );
+    let log: Vec<_> = sim.task_log().iter().map(|e| (e.conn, e.event)).collect();
+    let conn = sim.requests()[0].conn;
+    let waypoint = |index, value| {
+        (
+            conn,
+            TaskEvent::Waypoint {
+                index,
+                of: 3,
+                value,
+            },
+        )
+    };
+    assert_eq!(
+        log,
+        [
+            waypoint(1, 101),
+            waypoint(2, 102),
+            waypoint(3, 103),
+            (
+                conn,
+                TaskEvent::Ended {
+                    reached: 3,
+                    of: 3,
+                    value: 103,
+                    error_code: 0,
+                    error_status: 8960
+                }
+            ),
+        ]
+    );
+    assert_eq!(client.status().motion_state, MotionState::ForceControlStand);
+}
+
+/// A waypoint made unreachable fails the task when the robot sets out for it; the answer
+/// and 1007 name that waypoint, and the robot stands at the one before.
+#[test]
+fn an_unreachable_waypoint_fails_the_task_there() {
+    let sim = start(20.0);
+    sim.robot(|r| r.set_unreachable_points(&[202]));
+    let mut client = Client::connect(sim.addr());
+    let id = client.start_task(&[
+        point(201, 1.0, 0.0, PointInfo::Transition),
+        point(202, 2.0, 0.0, PointInfo::Transition),
+        point(203, 3.0, 0.0, PointInfo::Task),
+    ]);
+    let result = client.task_result(id, ms(10_000));
+    assert_eq!(result.value, 202);
+    assert_nav(&result, NavOutcome::Failed, 41804);
+    assert_eq!(result.status.description(), "global path planning failed");
+    assert_eq!(sim.snapshot().pose.x, 1.0);
+    assert_eq!(client.nav_status().value, 202);
+    let last = sim.task_log().last().copied().expect("logged");
+    assert!(
+        matches!(
+            last.event,
+            TaskEvent::Ended {
+                reached: 1,
+                value: 202,
+                error_status: 41804,
+                ..
+            }
+        ),
+        "{last:?}"
+    );
+}
+
+/// Cancelled on the way, a multi-point task's answer names the waypoint it was walking to.
+#[test]
+fn a_cancelled_multi_point_task_names_the_waypoint_it_was_on() {
+    let sim = start(10.0);
+    let mut a = Client::connect(sim.addr());
+    let mut b = Client::connect(sim.addr());
+    let task_id = a.start_task(&[
+        point(301, 0.5, 0.0, PointInfo::Transition),
+        far(302),
+        point(303, 0.0, 0.0, PointInfo::Task),
+    ]);
+    assert!(wait_until(ms(5000), || {
+        sim.snapshot().task.is_some_and(|t| t.target == 302)
+    }));
+    b.request(&Request::CancelNav);
+    let answer = a.recv();
+    assert_eq!(answer.id, task_id);
+    match answer.response {
+        Response::NavResult(r) => {
+            assert_eq!(r.value, 302);
+            assert_nav(&r, NavOutcome::Cancelled, 8962);
+        }
+        other => panic!("{other:?}"),
+    }
 }
 
 #[test]

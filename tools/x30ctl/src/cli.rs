@@ -18,14 +18,16 @@ const EXIT_STATUS_HELP: &str = "\
 Exit status:
   0    success
   1    the robot reported a failure: a failed ErrorCode (motion, light, cancel,
-       relocalize), or a navigation task that failed or was cancelled elsewhere
+       relocalize), or a navigation task that failed or was cancelled elsewhere;
+       route run: a point failed, or the connection was lost while a point ran
   2    usage or validation error (bad option, value out of the document's range,
-       unreadable decode input); nothing was sent to the robot
+       unreadable decode input, a route file that breaks the rules or cannot be
+       read or written); nothing was sent to the robot
   3    connection, timeout or protocol error: connection refused or closed, no answer
        within --timeout-ms (or --nav-timeout), a Type 0 answer (the robot could not
        read the request), or an answer that cannot be decoded
-  130  interrupted by Ctrl-C (nav: the task was cancelled with 1004; move: zero
-       velocity was sent first)
+  130  interrupted by Ctrl-C (nav, route run: the task was cancelled with 1004;
+       move: zero velocity was sent first)
 
 Examples:
   x30ctl --robot 192.168.1.106:30000 status
@@ -34,7 +36,9 @@ Examples:
   x30ctl move forward --speed 0.3 --duration 2
   x30ctl light --red 255 --effect breathing --brightness 60
   x30ctl watch --interval-ms 1000
-  x30ctl decode capture.hex";
+  x30ctl decode capture.hex
+  x30ctl route run patrol.json --loop 0
+  x30ctl route record patrol.json --map-id 1 --point-info task";
 
 /// Command-line client for the DEEP Robotics Jueying X30 robot_server (TCP port 30000,
 /// protocol V1.0.12): every request, human-readable or JSON output.
@@ -52,7 +56,8 @@ pub struct Cli {
     )]
     pub robot: String,
 
-    /// Print one JSON object per answer instead of human-readable text.
+    /// Print one JSON object per answer (per event for `route`) instead of human-readable
+    /// text.
     #[arg(long, global = true, help_heading = "Global options")]
     pub json: bool,
 
@@ -61,7 +66,8 @@ pub struct Cli {
           value_parser = clap::value_parser!(u64).range(1..=3_600_000))]
     pub connect_timeout_ms: u64,
 
-    /// How long to wait for each answer (not the 1003 answer of `nav`; see --nav-timeout).
+    /// How long to wait for each answer (not the 1003 answers of `nav` and `route run`,
+    /// which come when the task ends; see --nav-timeout).
     #[arg(long, global = true, help_heading = "Global options", default_value_t = 3000, value_name = "MS",
           value_parser = clap::value_parser!(u64).range(1..=3_600_000))]
     pub timeout_ms: u64,
@@ -71,7 +77,8 @@ pub struct Cli {
     pub command: Command,
 }
 
-/// The subcommands: one per request of the protocol, plus `move`, `watch` and `decode`.
+/// The subcommands: one per request of the protocol, plus `move`, `watch`, `decode` and
+/// `route`.
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Real-time basic status (Type 1002): motion state, pose, battery, gait, localisation.
@@ -119,6 +126,8 @@ pub enum Command {
     Watch(WatchArgs),
     /// Decode captured frames (hex text or raw bytes) from a file or standard input.
     Decode(DecodeArgs),
+    /// Patrol routes: walk, record or show a file of navigation points.
+    Route(RouteArgs),
 }
 
 /// Options of `nav`: every item of the 1003 request.
@@ -142,30 +151,9 @@ pub struct NavArgs {
     /// Heading at the target, rad.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub yaw: f32,
-    /// What the robot does on arrival.
-    #[arg(long, value_enum, default_value_t = PointArg::Task)]
-    pub point: PointArg,
-    /// Gait on the way.
-    #[arg(long, value_enum, default_value_t = NavGaitArg::Walk)]
-    pub gait: NavGaitArg,
-    /// Speed on the way.
-    #[arg(long, value_enum, default_value_t = NavSpeedArg::Normal)]
-    pub speed: NavSpeedArg,
-    /// Walking direction on the way.
-    #[arg(long, value_enum, default_value_t = MannerArg::Forwards)]
-    pub manner: MannerArg,
-    /// Navigation obstacle stop/avoid (the robot's own terrain safety stays on either way).
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    pub obstacle_avoidance: OnOff,
-    /// Straight line, or a planned (autonomous) path.
-    #[arg(long, value_enum, default_value_t = NavModeArg::Straight)]
-    pub nav_mode: NavModeArg,
-    /// Terrain-map mode on the way (frame allows only the frame-stairs gaits).
-    #[arg(long, value_enum, default_value_t = TerrainArg::Solid)]
-    pub terrain: TerrainArg,
-    /// Body height on the way (crouched allows only the walk and slope gaits).
-    #[arg(long, value_enum, default_value_t = PostureArg::Normal)]
-    pub posture: PostureArg,
+    /// What the robot does there and how it gets there.
+    #[command(flatten)]
+    pub style: PointStyleArgs,
     /// Give up after this many seconds: cancel the task (1004) and exit 3. Without it the
     /// answer is awaited as long as the task takes.
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
@@ -175,27 +163,130 @@ pub struct NavArgs {
 impl NavArgs {
     /// The 1003 point these options describe (not yet validated).
     pub fn point(&self) -> NavPoint {
-        let mut point = NavPoint::new(
-            self.value,
-            self.map_id,
-            self.x,
-            self.y,
-            self.z,
-            self.yaw,
-            self.point.into(),
-        );
-        point.gait = self.gait.into();
-        point.speed = self.speed.into();
-        point.manner = self.manner.into();
-        point.obs_mode = match self.obstacle_avoidance {
-            OnOff::On => ObsMode::Enabled,
-            OnOff::Off => ObsMode::Disabled,
-        };
-        point.nav_mode = self.nav_mode.into();
-        point.terrain = self.terrain.into();
-        point.posture = self.posture.into();
-        point
+        self.style
+            .point(self.value, self.map_id, self.x, self.y, self.z, self.yaw)
     }
+}
+
+/// The 1003 items that say what a point is and how to get there: everything but its
+/// number, map and pose. Shared by `nav` and `route record`.
+#[derive(Debug, Args)]
+pub struct PointStyleArgs {
+    /// What the robot does on arrival (PointInfo).
+    #[arg(long, visible_alias = "point", value_enum, default_value_t = PointArg::Task)]
+    pub point_info: PointArg,
+    /// Gait on the way.
+    #[arg(long, value_enum, default_value_t = NavGaitArg::Walk)]
+    pub gait: NavGaitArg,
+    /// Speed on the way.
+    #[arg(long, value_enum, default_value_t = NavSpeedArg::Normal)]
+    pub speed: NavSpeedArg,
+    /// Walking direction on the way.
+    #[arg(long, value_enum, default_value_t = MannerArg::Forwards)]
+    pub manner: MannerArg,
+    /// Navigation obstacle stop/avoid, ObsMode (the robot's own terrain safety stays on
+    /// either way).
+    #[arg(long, visible_alias = "obstacle-avoidance", value_enum, default_value_t = ObsModeArg::On)]
+    pub obs_mode: ObsModeArg,
+    /// Straight line, or a planned (autonomous) path.
+    #[arg(long, value_enum, default_value_t = NavModeArg::Straight)]
+    pub nav_mode: NavModeArg,
+    /// Terrain-map mode on the way (frame allows only the frame-stairs gaits).
+    #[arg(long, value_enum, default_value_t = TerrainArg::Solid)]
+    pub terrain: TerrainArg,
+    /// Body height on the way (crouched allows only the walk and slope gaits).
+    #[arg(long, value_enum, default_value_t = PostureArg::Normal)]
+    pub posture: PostureArg,
+}
+
+impl PointStyleArgs {
+    /// A 1003 point at this pose, in this style (not yet validated).
+    pub fn point(&self, value: i32, map_id: i32, x: f32, y: f32, z: f32, yaw: f32) -> NavPoint {
+        NavPoint {
+            gait: self.gait.into(),
+            speed: self.speed.into(),
+            manner: self.manner.into(),
+            obs_mode: self.obs_mode.into(),
+            nav_mode: self.nav_mode.into(),
+            terrain: self.terrain.into(),
+            posture: self.posture.into(),
+            ..NavPoint::new(value, map_id, x, y, z, yaw, self.point_info.into())
+        }
+    }
+}
+
+/// `route`'s subcommands.
+#[derive(Debug, Args)]
+pub struct RouteArgs {
+    /// What to do with the route.
+    #[command(subcommand)]
+    pub command: RouteCommand,
+}
+
+/// Route files: a JSON array of points whose keys are the 1003 items (Value, MapID, PosX,
+/// PosY, PosZ, AngleYaw, PointInfo, Gait, Speed, Manner, ObsMode, NavMode, Terrain,
+/// Posture), the format of the vendor SDK's default_navigation_points.json.
+#[derive(Debug, Subcommand)]
+pub enum RouteCommand {
+    /// Walk a route: one navigation task (Type 1003) per point, in order, each sent when the
+    /// previous one has been reached.
+    ///
+    /// Every point is checked before anything is sent. Ctrl-C cancels the running point
+    /// (Type 1004); a failed point or a lost connection stops the route. Each of these
+    /// prints the command that resumes the route where it stopped.
+    Run(RouteRunArgs),
+    /// Record a route: each Enter on standard input adds the robot's pose (Type 1002) as the
+    /// next point; q + Enter (or the end of the input) finishes.
+    ///
+    /// The file is rewritten after every point, so an interrupted recording keeps what it
+    /// has.
+    Record(RouteRecordArgs),
+    /// Check a route file and show its points; nothing is sent.
+    Show(RouteShowArgs),
+}
+
+/// Options of `route run`.
+#[derive(Debug, Args)]
+pub struct RouteRunArgs {
+    /// The route file.
+    pub file: PathBuf,
+    /// Start at this point (1 = the first); later loops start at the first.
+    #[arg(long, value_name = "N", default_value_t = 1,
+          value_parser = clap::value_parser!(u64).range(1..))]
+    pub from: u64,
+    /// Walk the route this many times; 0 repeats it until Ctrl-C.
+    #[arg(long = "loop", value_name = "K", default_value_t = 1)]
+    pub loops: u64,
+    /// Check the route and show what would be sent; send nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Send all points in one 1003 request (one <Items> block each, at most 8), as the
+    /// vendor SDK does, instead of one request per point.
+    #[arg(long)]
+    pub single_request: bool,
+}
+
+/// Options of `route record`.
+#[derive(Debug, Args)]
+pub struct RouteRecordArgs {
+    /// The route file to write.
+    pub file: PathBuf,
+    /// Grid-map number of every point, as in the robot's map.toml.
+    #[arg(long, allow_negative_numbers = true)]
+    pub map_id: i32,
+    /// The other items of every point.
+    #[command(flatten)]
+    pub style: PointStyleArgs,
+    /// Overwrite the file if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Options of `route show`.
+#[derive(Debug, Args)]
+pub struct RouteShowArgs {
+    /// The route file.
+    pub file: PathBuf,
 }
 
 /// Options of `light`.
@@ -323,7 +414,7 @@ macro_rules! value_enum {
 }
 
 value_enum! {
-    /// `--point` of `nav` (PointInfo).
+    /// `--point-info` of `nav` and `route record` (PointInfo).
     PointArg => PointInfo {
         /// Code 0: keeps stepping at the point.
         Transition => Transition,
@@ -374,6 +465,16 @@ value_enum! {
         Forwards => Forwards,
         /// Code 1.
         Backwards => Backwards,
+    }
+}
+
+value_enum! {
+    /// `--obs-mode` of `nav` and `route record` (note the protocol's inverted codes).
+    ObsModeArg => ObsMode {
+        /// Code 0: navigation obstacle stop/avoid on.
+        On => Enabled,
+        /// Code 1: off.
+        Off => Disabled,
     }
 }
 
@@ -433,15 +534,6 @@ value_enum! {
         /// Code 1.
         Breathing => Breathing,
     }
-}
-
-/// `on`/`off` switches.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum OnOff {
-    /// Enabled.
-    On,
-    /// Disabled.
-    Off,
 }
 
 #[cfg(test)]

@@ -78,6 +78,15 @@ pub enum Error {
     Failed(String),
     /// Ctrl-C, after the command cleaned up.
     Interrupted(String),
+    /// A route stopped before its end.
+    RouteStopped {
+        /// Where: which point of which loop.
+        at: String,
+        /// Why; its exit status is the route's.
+        cause: Box<Error>,
+        /// The command that carries on from there, if anything is left to walk.
+        resume: Option<String>,
+    },
 }
 
 impl Error {
@@ -87,6 +96,7 @@ impl Error {
             Self::Usage(_) => EXIT_USAGE,
             Self::Failed(_) => EXIT_ROBOT_FAILURE,
             Self::Interrupted(_) => EXIT_INTERRUPTED,
+            Self::RouteStopped { cause, .. } => cause.exit_code(),
             Self::Resolve { .. }
             | Self::Connect { .. }
             | Self::Timeout { .. }
@@ -185,6 +195,13 @@ impl fmt::Display for Error {
                 f,
                 "bad answer to Type {message_type} (message ID {message_id}): {detail}"
             ),
+            Self::RouteStopped { at, cause, resume } => {
+                write!(f, "route stopped at {at}: {cause}")?;
+                match resume {
+                    Some(command) => write!(f, "; to resume: {command}"),
+                    None => Ok(()),
+                }
+            }
         }
     }
 }

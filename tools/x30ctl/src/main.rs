@@ -13,6 +13,7 @@ mod error;
 mod move_cmd;
 mod nav_cmd;
 mod render;
+mod route;
 mod watch_cmd;
 
 use std::process::ExitCode;
@@ -57,7 +58,7 @@ impl Ctx {
     }
 }
 
-/// Counts Ctrl-C presses; commands that must clean up (nav, move) poll it.
+/// Counts Ctrl-C presses; commands that must clean up (nav, move, route run) poll it.
 #[derive(Debug, Clone, Default)]
 pub struct Interrupts(Arc<AtomicUsize>);
 
@@ -142,6 +143,7 @@ fn run(ctx: &Ctx, command: &Command) -> Result<(), Error> {
         Command::Move(args) => move_cmd::run(ctx, args, &Interrupts::install()?),
         Command::Watch(args) => watch_cmd::run(ctx, args),
         Command::Decode(args) => decode_cmd::run(ctx, args),
+        Command::Route(args) => route::run(ctx, args),
     }
 }
 

@@ -197,7 +197,7 @@ fn summary(
 }
 
 /// Sleeps until `when`, waking every few ms to look for Ctrl-C; false if it was pressed.
-fn sleep_until(when: Instant, interrupts: &Interrupts) -> bool {
+pub fn sleep_until(when: Instant, interrupts: &Interrupts) -> bool {
     loop {
         if interrupts.count() > 0 {
             return false;

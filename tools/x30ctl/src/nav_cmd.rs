@@ -8,24 +8,24 @@
 //! Ctrl-C (or `--nav-timeout`) cancels the task with a 1004 request on a separate
 //! connection; the robot then sends the cancelled 1003 answer (ErrorCode 2, ErrorStatus
 //! 8962) on the task connection and the 1004 answer on the other. Both are reported. A
-//! second Ctrl-C gives up at once.
+//! second Ctrl-C gives up at once. [`await_task`] is that wait, which `route run` shares.
 
 use std::sync::mpsc;
 use std::thread;
 use std::time::Duration;
 
 use x30_panel::proto::codes::{MessageType, NavOutcome};
-use x30_panel::proto::message::{NavTask, Request, Response};
+use x30_panel::proto::message::{NavResult, NavTask, Request, Response};
 
 use crate::cli::NavArgs;
-use crate::conn::{Answer, Check, Deadline};
+use crate::conn::{Answer, Check, Connection, Deadline};
 use crate::error::Error;
 use crate::render::{self, note};
 use crate::{Ctx, Interrupts};
 
 /// Why the task is being cancelled.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Reason {
+pub enum Reason {
     /// Ctrl-C.
     Interrupted,
     /// `--nav-timeout` expired.
@@ -99,36 +99,34 @@ impl Cancel {
     }
 }
 
-/// Runs `nav`.
-pub fn run(ctx: &Ctx, args: &NavArgs, interrupts: &Interrupts) -> Result<(), Error> {
-    let point = args.point();
-    let request = Request::NavTask(NavTask::to_point(point));
-    crate::validate(&request, "nav")?;
-    let nav_timeout = match args.nav_timeout {
-        None => None,
-        Some(seconds) => Some(
-            Duration::try_from_secs_f64(seconds)
-                .ok()
-                .filter(|d| !d.is_zero())
-                .ok_or_else(|| {
-                    Error::Usage(format!(
-                        "nav: --nav-timeout {seconds} is not a positive number of seconds; nothing sent"
-                    ))
-                })?,
-        ),
-    };
+/// How waiting for a 1003 answer ended: the answer, and the cancel if one was sent.
+#[derive(Debug)]
+pub struct TaskEnd {
+    /// The 1003 answer.
+    pub answer: Answer,
+    /// Its items.
+    pub result: NavResult,
+    /// Why the task was cancelled and the 1004 answer (or why there is none), if Ctrl-C or
+    /// the nav timeout cancelled it.
+    pub cancel: Option<(Reason, Result<Answer, Error>)>,
+}
 
-    let mut conn = ctx.connect()?;
-    let message_id = conn.send(&request)?;
-    if !ctx.json {
-        note(&format!(
-            "x30ctl: navigation task sent ({}); waiting until the robot has finished it (Ctrl-C cancels)",
-            render::nav_point_text(&point)
-        ));
-    }
-
+/// Waits on `conn` for the answer to the 1003 request `message_id`, for as long as the task
+/// takes. The first Ctrl-C, or `nav_timeout` passing, cancels the task (1004 on another
+/// connection) and waits for the cancelled answer; a second Ctrl-C, or a cancel that fails,
+/// gives up at once (closing the connection then stops the task). `tick` runs after every
+/// read, at least every 100 ms, with the time waited so far.
+pub fn await_task(
+    ctx: &Ctx,
+    conn: &mut Connection,
+    message_id: u16,
+    interrupts: &Interrupts,
+    nav_timeout: Option<Duration>,
+    mut tick: impl FnMut(Duration),
+) -> Result<TaskEnd, Error> {
     let mut cancel: Option<Cancel> = None;
     let result = conn.wait(message_id, MessageType::NavTask, |waited| {
+        tick(waited);
         let presses = interrupts.count();
         if presses >= 2 {
             return Check::Abort(Error::Interrupted(
@@ -180,8 +178,7 @@ pub fn run(ctx: &Ctx, args: &NavArgs, interrupts: &Interrupts) -> Result<(), Err
             return Err(e);
         }
     };
-    ctx.print(&answer);
-    let Response::NavResult(outcome) = answer.response else {
+    let Response::NavResult(result) = answer.response else {
         // conn.wait only returns answers of the request's Type.
         return Err(Error::BadAnswer {
             message_type: MessageType::NavTask.raw(),
@@ -189,25 +186,60 @@ pub fn run(ctx: &Ctx, args: &NavArgs, interrupts: &Interrupts) -> Result<(), Err
             detail: "not a navigation result".to_owned(),
         });
     };
+    Ok(TaskEnd {
+        answer,
+        result,
+        cancel: cancel.map(|cancel| (cancel.reason, cancel.finish())),
+    })
+}
 
-    if let Some(cancel) = cancel {
-        let reason = cancel.reason;
-        match cancel.finish() {
+/// Runs `nav`.
+pub fn run(ctx: &Ctx, args: &NavArgs, interrupts: &Interrupts) -> Result<(), Error> {
+    let point = args.point();
+    let request = Request::NavTask(NavTask::to_point(point));
+    crate::validate(&request, "nav")?;
+    let nav_timeout = match args.nav_timeout {
+        None => None,
+        Some(seconds) => Some(
+            Duration::try_from_secs_f64(seconds)
+                .ok()
+                .filter(|d| !d.is_zero())
+                .ok_or_else(|| {
+                    Error::Usage(format!(
+                        "nav: --nav-timeout {seconds} is not a positive number of seconds; nothing sent"
+                    ))
+                })?,
+        ),
+    };
+
+    let mut conn = ctx.connect()?;
+    let message_id = conn.send(&request)?;
+    if !ctx.json {
+        note(&format!(
+            "x30ctl: navigation task sent ({}); waiting until the robot has finished it (Ctrl-C cancels)",
+            render::nav_point_text(&point)
+        ));
+    }
+
+    let end = await_task(ctx, &mut conn, message_id, interrupts, nav_timeout, |_| {})?;
+    ctx.print(&end.answer);
+    if let Some((reason, cancel_answer)) = end.cancel {
+        match cancel_answer {
             Ok(cancel_answer) => ctx.print(&cancel_answer),
             Err(e) => note(&format!("x30ctl: cancel (Type 1004): {e}")),
         }
-        if outcome.outcome == NavOutcome::Cancelled {
+        if end.result.outcome == NavOutcome::Cancelled {
             return Err(match reason {
                 Reason::Interrupted => Error::Interrupted(format!(
                     "navigation task cancelled by Ctrl-C: ErrorStatus {}, \"{}\"",
-                    outcome.status.raw(),
-                    outcome.status.description()
+                    end.result.status.raw(),
+                    end.result.status.description()
                 )),
                 Reason::TimedOut(after) => {
                     note(&format!(
                         "x30ctl: navigation task cancelled after --nav-timeout: ErrorStatus {}, \"{}\"",
-                        outcome.status.raw(),
-                        outcome.status.description()
+                        end.result.status.raw(),
+                        end.result.status.description()
                     ));
                     Error::Timeout {
                         waited: after,
@@ -217,7 +249,7 @@ pub fn run(ctx: &Ctx, args: &NavArgs, interrupts: &Interrupts) -> Result<(), Err
             });
         }
     }
-    match render::failure("nav", &answer.response) {
+    match render::failure("nav", &end.answer.response) {
         Some(message) => Err(Error::Failed(message)),
         None => Ok(()),
     }

@@ -52,15 +52,20 @@ struct Entry {
 }
 
 impl Entry {
-    fn from_json(line: &str) -> Result<Self, String> {
+    /// The request a log line records; `None` for a navigation task's progress line
+    /// (`"event"`), which is not a request.
+    fn from_json(line: &str) -> Result<Option<Self>, String> {
         let v: Value = serde_json::from_str(line).map_err(|e| format!("not JSON ({e})"))?;
-        Ok(Self {
+        if v.get("event").is_some() {
+            return Ok(None);
+        }
+        Ok(Some(Self {
             t: v["t"].as_f64().ok_or("no time `t`")?,
             conn: v["conn"].as_i64().unwrap_or(0),
             message_type: v["type"].as_i64(),
             command: v["command"].as_i64(),
             error: v["error"].as_str().map(str::to_owned),
-        })
+        }))
     }
 }
 
@@ -137,7 +142,7 @@ fn main() -> ExitCode {
         .filter(|(_, l)| !l.trim().is_empty())
     {
         match Entry::from_json(line) {
-            Ok(entry) => entries.push(entry),
+            Ok(entry) => entries.extend(entry),
             Err(e) => {
                 eprintln!("x30-log-summary: {}:{}: {e}", cli.log.display(), n + 1);
                 return ExitCode::from(2);
@@ -247,13 +252,17 @@ mod tests {
             r#"{"t":1.204,"conn":1,"id":3,"type":2,"command":1,"items":{"Value":-1.0}}"#,
         )
         .unwrap();
-        assert_eq!(e, motion(1.204, 1));
+        assert_eq!(e, Some(motion(1.204, 1)));
         let bad = Entry::from_json(
             r#"{"t":0.25,"conn":3,"id":null,"type":null,"command":null,"error":"frame: Garbage"}"#,
         )
+        .unwrap()
         .unwrap();
         assert_eq!(bad.message_type, None);
         assert_eq!(bad.error.as_deref(), Some("frame: Garbage"));
+        // A task's progress is not a request.
+        let progress = r#"{"t":2.5,"event":"waypoint","index":1,"of":3,"value":2}"#;
+        assert_eq!(Entry::from_json(progress), Ok(None));
         assert!(Entry::from_json("{}").is_err());
         assert!(Entry::from_json("nope").is_err());
     }

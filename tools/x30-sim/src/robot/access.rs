@@ -192,6 +192,13 @@ impl Robot {
         };
     }
 
+    /// Makes waypoints with these `Value`s unreachable: a task fails with 41804 (global
+    /// path planning failed) when it sets out for one, as a real robot does when no path
+    /// leads there. An empty list makes every waypoint reachable again.
+    pub fn set_unreachable_points(&mut self, values: &[i32]) {
+        self.unreachable = values.to_vec();
+    }
+
     /// Sets the gait (1002 `GaitState`).
     pub fn set_gait(&mut self, gait: GaitState) {
         self.gait = gait;

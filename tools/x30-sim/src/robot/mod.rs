@@ -10,7 +10,8 @@
 //! Requests go in through [`Robot::handle`], which answers at once or, for a navigation task,
 //! later. A task that ends for reasons other than a cancel (arrival, a failure while it
 //! runs, a soft emergency stop) leaves its answer in an outbox that the server empties with
-//! [`Robot::take_ended`].
+//! [`Robot::take_ended`]. What tasks do on the way (each waypoint set out for, how they end)
+//! collects for the log the same way ([`Robot::take_task_events`]).
 
 mod access;
 mod motion;
@@ -27,14 +28,14 @@ use x30_panel::proto::codes::{
 };
 use x30_panel::proto::message::{
     Battery, CommandAck, Direction, Light, MapImage, MotionAck, MotionCommand, MotionValue,
-    MotorTemperatures, NavResult, NavTask, NavTaskState, Perception, Relocalize, RelocalizeAck,
-    Request, Response, RobotStatus, ValidationError,
+    MotorTemperatures, NavPoint, NavResult, NavTask, NavTaskState, Perception, Relocalize,
+    RelocalizeAck, Request, Response, RobotStatus, ValidationError,
 };
 
 pub use access::{Snapshot, TaskInfo};
 pub use motion::{FORCE_CONTROL_TIME, LIE_DOWN_TIME, MOTION_TIMEOUT, ManualMotion, STAND_UP_TIME};
 pub use motors::OVER_TEMPERATURE;
-pub use nav::nav_speed;
+pub use nav::{TaskEvent, TaskProgress, nav_speed};
 pub use power::{CHARGE_RATE, IDLE_DRAIN, LYING_DRAIN, Load, MOVING_DRAIN, NOMINAL_CAPACITY};
 
 use motion::{Transition, wrap_angle};
@@ -103,7 +104,8 @@ pub struct EndedTask {
 /// How the last navigation task ended.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TaskRecord {
-    /// Its last waypoint's number.
+    /// The number its answer carried: the last waypoint's when all were reached, else the
+    /// one it stopped on the way to.
     pub value: i32,
     /// Succeeded, failed or cancelled.
     pub outcome: NavOutcome,
@@ -153,14 +155,22 @@ pub struct Pose {
 ///
 /// # Navigation
 ///
-/// A task walks its waypoints in straight lines at the point's speed (normal 0.5, low
-/// 0.25, high 1.0 m/s). It is refused at once (ErrorCode 1) when the navigation program is
-/// not running (41745), a task already runs (41793), a point breaks the document's rules
-/// (ErrorStatus 0: the document has no code for it), or the robot's state forbids it:
-/// soft e-stop or fallen (41729), battery ≤ 10 % (41730), a motor over 80 °C (41731), a
-/// charger connected (41732), localisation lost (41747). The same conditions end a running
-/// task. On arrival: transition point → keeps stepping; task or standing point →
-/// force-control stand; charging point → lying on the dock, charging.
+/// A task walks its waypoints (one per `<Items>` block) in order, in straight lines at each
+/// point's speed (normal 0.5, low 0.25, high 1.0 m/s), and is answered once, when it ends.
+/// It is refused at once (ErrorCode 1) when the navigation program is not running (41745),
+/// a task already runs (41793), a point breaks the document's rules (ErrorStatus 0: the
+/// document has no code for it), or the robot's state forbids it: soft e-stop or fallen
+/// (41729), battery ≤ 10 % (41730), a motor over 80 °C (41731), a charger connected
+/// (41732), localisation lost (41747). The same conditions end a running task, and so does
+/// setting out for a waypoint made unreachable ([`Robot::set_unreachable_points`]: 41804,
+/// global path planning failed). On arrival at the last waypoint: transition point → keeps
+/// stepping; task or standing point → force-control stand; charging point → lying on the
+/// dock, charging.
+///
+/// The answer's `Value` is the last waypoint's when the task succeeded; when it failed or
+/// was cancelled, it is the waypoint the robot was walking to (a refused task: the first),
+/// so that the client learns where the route stopped. 1007 reports the waypoint being walked
+/// to while the task runs.
 #[derive(Debug, Clone)]
 pub struct Robot {
     time_scale: f64,
@@ -187,6 +197,9 @@ pub struct Robot {
     task: Option<Task>,
     last_task: Option<TaskRecord>,
     ended: Vec<EndedTask>,
+    task_events: Vec<TaskProgress>,
+    /// `Value`s of waypoints no task can reach.
+    unreachable: Vec<i32>,
 }
 
 impl Default for Robot {
@@ -228,6 +241,8 @@ impl Robot {
             task: None,
             last_task: None,
             ended: Vec::new(),
+            task_events: Vec::new(),
+            unreachable: Vec::new(),
         }
     }
 
@@ -334,6 +349,20 @@ impl Robot {
     /// Takes the answers of tasks that have ended by themselves since the last call.
     pub fn take_ended(&mut self) -> Vec<EndedTask> {
         std::mem::take(&mut self.ended)
+    }
+
+    /// Takes what tasks did since the last call (waypoints set out for, ends), oldest first.
+    pub fn take_task_events(&mut self) -> Vec<TaskProgress> {
+        std::mem::take(&mut self.task_events)
+    }
+
+    /// Notes a task event at the current time.
+    fn task_event(&mut self, owner: Requester, event: TaskEvent) {
+        self.task_events.push(TaskProgress {
+            owner,
+            at: self.real_now,
+            event,
+        });
     }
 
     // ---------------------------------------------------------------------------------
@@ -517,7 +546,8 @@ impl Robot {
     /// A point that breaks the document's rules (`NavPoint::validate`) fails with ErrorCode 1
     /// and ErrorStatus 0: the document has no code for it.
     fn start_task(&mut self, task: &NavTask, from: Requester) -> Reply {
-        let value = task.target().map_or(0, |p| p.value);
+        // A refused task never left its first waypoint.
+        let value = task.points.first().map_or(0, |p| p.value);
         let refuse = |status| {
             Reply::Now(Response::NavResult(NavResult {
                 value,
@@ -544,6 +574,9 @@ impl Robot {
         self.control_mode = ControlMode::Automatic;
         let task = Task::new(from, &task.points);
         self.speed = task.reported_speed();
+        if let Some(event) = task.set_out(0) {
+            self.task_event(from, event);
+        }
         self.task = Some(task);
         Reply::Later
     }
@@ -582,6 +615,9 @@ impl Robot {
     }
 
     /// Moves the running task on by `dt` simulated seconds; returns the distance walked.
+    ///
+    /// Each waypoint set out for is noted for the log; setting out for an unreachable one
+    /// fails the task.
     fn run_task(&mut self, dt: f64) -> f64 {
         if let Some(status) = self.task_blocker() {
             self.fail_task(status);
@@ -604,10 +640,28 @@ impl Robot {
             return 0.0;
         }
         task.obstacle_since = None;
-        let covered = task.walk(&mut self.pose, dt);
+        let unreachable = &self.unreachable;
+        let blocked = |p: &NavPoint| unreachable.contains(&p.value);
+        let before = task.reached();
+        let covered = task.walk(&mut self.pose, dt, blocked);
         self.speed = task.reported_speed();
-        if task.is_done() {
-            let arrival = task.final_point().map(|p| p.point_info);
+        let (owner, after) = (task.owner, task.reached());
+        let set_out: Vec<TaskEvent> = (before + 1..=after)
+            .filter_map(|index| task.set_out(index))
+            .collect();
+        let stuck = task.current().is_some_and(blocked);
+        let done = task.is_done();
+        for event in set_out {
+            self.task_event(owner, event);
+        }
+        if stuck {
+            self.fail_task(ErrorStatus::GlobalPlanningFailed);
+        } else if done {
+            let arrival = self
+                .task
+                .as_ref()
+                .and_then(Task::final_point)
+                .map(|p| p.point_info);
             self.arrive(arrival);
             if let Some(ended) = self.end_task(NavOutcome::Succeeded, ErrorStatus::TaskCompleted) {
                 self.ended.push(ended);
@@ -642,10 +696,11 @@ impl Robot {
     fn end_task(&mut self, outcome: NavOutcome, status: ErrorStatus) -> Option<EndedTask> {
         let task = self.task.take()?;
         let result = NavResult {
-            value: task.value(),
+            value: task.ended_value(),
             outcome,
             status,
         };
+        self.task_event(task.owner, TaskEvent::ended(&task, &result));
         self.last_task = Some(TaskRecord {
             value: result.value,
             outcome,

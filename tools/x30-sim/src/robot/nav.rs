@@ -1,7 +1,10 @@
 //! A navigation task (Type 1003) under way: its waypoints walked in order, in straight lines.
 
+use std::time::Duration;
+
+use serde::Serialize;
 use x30_panel::proto::codes::{Manner, NavSpeed};
-use x30_panel::proto::message::NavPoint;
+use x30_panel::proto::message::{NavPoint, NavResult};
 
 use super::motion::wrap_angle;
 use super::{Pose, Requester};
@@ -14,6 +17,60 @@ pub fn nav_speed(speed: NavSpeed) -> f64 {
         // Validation refuses unknown codes before a task starts.
         NavSpeed::Normal | NavSpeed::Unknown(_) => 0.5,
     }
+}
+
+/// What a navigation task did, as the request log records it (`"event"` names the kind).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum TaskEvent {
+    /// The robot set out for a waypoint: number `index` (from 1) of the task's `of`,
+    /// whose `Value` is `value`.
+    Waypoint {
+        /// Position in the task, from 1.
+        index: usize,
+        /// Waypoints in the task.
+        of: usize,
+        /// The waypoint's `Value`.
+        value: i32,
+    },
+    /// The task ended with an answer carrying `value`, `error_code` and `error_status`,
+    /// after reaching `reached` of its `of` waypoints.
+    Ended {
+        /// Waypoints reached.
+        reached: usize,
+        /// Waypoints in the task.
+        of: usize,
+        /// The answer's `Value`.
+        value: i32,
+        /// The answer's `ErrorCode`.
+        error_code: i32,
+        /// The answer's `ErrorStatus`.
+        error_status: i32,
+    },
+}
+
+impl TaskEvent {
+    /// The event for a task that ended with `result`.
+    pub fn ended(task: &Task, result: &NavResult) -> Self {
+        Self::Ended {
+            reached: task.reached(),
+            of: task.len(),
+            value: result.value,
+            error_code: result.outcome.raw(),
+            error_status: result.status.raw(),
+        }
+    }
+}
+
+/// A [`TaskEvent`] with the task it belongs to and when it happened.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TaskProgress {
+    /// The 1003 request's connection and message ID.
+    pub owner: Requester,
+    /// Real time since the simulator started.
+    pub at: Duration,
+    /// What happened.
+    pub event: TaskEvent,
 }
 
 /// A running navigation task.
@@ -64,9 +121,25 @@ impl Task {
         self.next
     }
 
+    /// The number the answer carries when the task ends now: the last waypoint's once all
+    /// are reached, otherwise the one being walked to, so that a client learns where the
+    /// task stopped.
+    pub fn ended_value(&self) -> i32 {
+        self.current().map_or(self.value(), |p| p.value)
+    }
+
     /// Whether every waypoint has been reached.
     pub fn is_done(&self) -> bool {
         self.next >= self.points.len()
+    }
+
+    /// The event for setting out for the waypoint at `index` (from 0), if there is one.
+    pub fn set_out(&self, index: usize) -> Option<TaskEvent> {
+        self.points.get(index).map(|p| TaskEvent::Waypoint {
+            index: index + 1,
+            of: self.points.len(),
+            value: p.value,
+        })
     }
 
     /// The forward speed the robot reports while walking to the current waypoint, m/s:
@@ -87,11 +160,17 @@ impl Task {
     ///
     /// A waypoint is reached exactly when distance / speed has elapsed, so the task never
     /// ends before its walking time. On reaching one the robot takes its `AngleYaw`; on the
-    /// way it faces along the path (away from it when walking backwards).
-    pub fn walk(&mut self, pose: &mut Pose, dt: f64) -> f64 {
+    /// way it faces along the path (away from it when walking backwards). The walk stops
+    /// short of any waypoint `unreachable` accepts: the robot cannot set out for it.
+    pub fn walk(
+        &mut self,
+        pose: &mut Pose,
+        dt: f64,
+        unreachable: impl Fn(&NavPoint) -> bool,
+    ) -> f64 {
         let mut left = dt.max(0.0);
         let mut covered = 0.0;
-        while let Some(point) = self.points.get(self.next) {
+        while let Some(point) = self.points.get(self.next).filter(|p| !unreachable(p)) {
             let speed = nav_speed(point.speed);
             let (dx, dy, dz) = (
                 f64::from(point.pos_x) - pose.x,
@@ -146,6 +225,11 @@ mod tests {
         }
     }
 
+    /// Every waypoint is reachable.
+    fn never(_: &NavPoint) -> bool {
+        false
+    }
+
     const OWNER: Requester = Requester {
         conn: 1,
         message_id: 7,
@@ -160,16 +244,16 @@ mod tests {
         let mut task = Task::new(OWNER, &points);
         let mut pose = Pose::default();
         // 3 m at 0.5 m/s takes 6 s.
-        assert!((task.walk(&mut pose, 5.0) - 2.5).abs() < 1e-9);
+        assert!((task.walk(&mut pose, 5.0, never) - 2.5).abs() < 1e-9);
         assert!((pose.x - 2.5).abs() < 1e-9 && pose.yaw.abs() < 1e-9);
         assert_eq!(task.reached(), 0);
         // One more second reaches the first point exactly; the second is 4 m at 1 m/s.
-        task.walk(&mut pose, 1.0);
+        task.walk(&mut pose, 1.0, never);
         assert_eq!(task.reached(), 1);
         assert_eq!(pose.yaw, 1.0);
-        task.walk(&mut pose, 3.999);
+        task.walk(&mut pose, 3.999, never);
         assert!(!task.is_done());
-        task.walk(&mut pose, 0.001);
+        task.walk(&mut pose, 0.001, never);
         assert!(task.is_done());
         assert_eq!((pose.x, pose.y), (3.0, 4.0));
         assert_eq!(task.value(), 2);
@@ -184,16 +268,35 @@ mod tests {
         let mut task = Task::new(OWNER, &points);
         let mut pose = Pose::default();
         // 1 s for the first metre, then 1 s at 0.25 m/s.
-        let covered = task.walk(&mut pose, 2.0);
+        let covered = task.walk(&mut pose, 2.0, never);
         assert!((covered - 1.25).abs() < 1e-9, "{covered}");
         assert!((pose.x - 1.25).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_walk_stops_short_of_an_unreachable_waypoint() {
+        let points = [
+            point(1, 1.0, 0.0, NavSpeed::High),
+            point(2, 2.0, 0.0, NavSpeed::High),
+        ];
+        let mut task = Task::new(OWNER, &points);
+        let mut pose = Pose::default();
+        assert_eq!(task.ended_value(), 1);
+        let covered = task.walk(&mut pose, 5.0, |p| p.value == 2);
+        assert!((covered - 1.0).abs() < 1e-9, "{covered}");
+        assert_eq!((task.reached(), pose.x), (1, 1.0));
+        // Stopped now, the task names the waypoint it did not reach; done, the last one.
+        assert_eq!(task.ended_value(), 2);
+        task.walk(&mut pose, 1.0, never);
+        assert!(task.is_done());
+        assert_eq!(task.ended_value(), 2);
     }
 
     #[test]
     fn a_point_where_the_robot_stands_is_reached_at_once() {
         let mut task = Task::new(OWNER, &[point(9, 0.0, 0.0, NavSpeed::Normal)]);
         let mut pose = Pose::default();
-        assert_eq!(task.walk(&mut pose, 0.0), 0.0);
+        assert_eq!(task.walk(&mut pose, 0.0, never), 0.0);
         assert!(task.is_done());
     }
 }

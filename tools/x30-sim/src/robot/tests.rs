@@ -288,6 +288,112 @@ fn waypoints_are_walked_in_order_and_the_answer_names_the_last() {
 }
 
 #[test]
+fn each_waypoint_set_out_for_and_the_end_are_noted() {
+    let mut robot = Robot::new(1.0);
+    let points = [
+        point(11, 1.0, 0.0, PointInfo::Transition),
+        point(12, 1.0, 1.0, PointInfo::Transition),
+        point(13, 0.0, 1.0, PointInfo::Task),
+    ];
+    robot.handle(&task(&points), A, ms(100));
+    // 3 m at 0.5 m/s: all three reached within one long step.
+    robot.advance(ms(6200));
+    let waypoint = |index, value| TaskEvent::Waypoint {
+        index,
+        of: 3,
+        value,
+    };
+    let events: Vec<_> = robot
+        .take_task_events()
+        .into_iter()
+        .map(|p| (p.owner, p.at, p.event))
+        .collect();
+    assert_eq!(
+        events,
+        [
+            (A, ms(100), waypoint(1, 11)),
+            (A, ms(6200), waypoint(2, 12)),
+            (A, ms(6200), waypoint(3, 13)),
+            (
+                A,
+                ms(6200),
+                TaskEvent::Ended {
+                    reached: 3,
+                    of: 3,
+                    value: 13,
+                    error_code: 0,
+                    error_status: 8960,
+                }
+            ),
+        ]
+    );
+    assert!(robot.take_task_events().is_empty());
+}
+
+#[test]
+fn an_unreachable_waypoint_fails_the_task_naming_it() {
+    let mut robot = Robot::new(1.0);
+    robot.set_unreachable_points(&[22]);
+    let points = [
+        point(21, 1.0, 0.0, PointInfo::Transition),
+        point(22, 2.0, 0.0, PointInfo::Transition),
+        point(23, 3.0, 0.0, PointInfo::Task),
+    ];
+    robot.handle(&task(&points), A, ms(0));
+    robot.advance(ms(10_000));
+    let ended = robot.take_ended();
+    assert_eq!(ended.len(), 1);
+    assert_eq!(ended[0].result.value, 22);
+    assert_eq!(ended[0].result.outcome, NavOutcome::Failed);
+    assert_eq!(ended[0].result.status, ErrorStatus::GlobalPlanningFailed);
+    // It stopped at the waypoint before the unreachable one.
+    assert_eq!(robot.pose().x, 1.0);
+    assert_eq!(robot.motion_state(), MotionState::ForceControlStand);
+    assert_eq!(robot.nav_status().value, 22);
+    // As the first waypoint, it fails the task on the next step.
+    robot.handle(&task(&[points[1]]), A, ms(10_000));
+    robot.advance(ms(10_020));
+    assert_eq!(
+        robot.take_ended()[0].result.status,
+        ErrorStatus::GlobalPlanningFailed
+    );
+    robot.set_unreachable_points(&[]);
+    robot.handle(&task(&[points[1]]), A, ms(10_020));
+    robot.advance(ms(13_000));
+    assert_eq!(
+        robot.take_ended()[0].result.status,
+        ErrorStatus::TaskCompleted
+    );
+}
+
+#[test]
+fn a_cancelled_or_refused_task_names_the_waypoint_it_was_on() {
+    let mut robot = Robot::new(1.0);
+    let points = [
+        point(31, 1.0, 0.0, PointInfo::Transition),
+        point(32, 100.0, 0.0, PointInfo::Transition),
+        point(33, 0.0, 0.0, PointInfo::Task),
+    ];
+    robot.handle(&task(&points), A, ms(0));
+    robot.advance(ms(5000));
+    // A refused task never left its first waypoint.
+    match answer(robot.handle(&task(&points), B, ms(5000))) {
+        Response::NavResult(r) => {
+            assert_eq!((r.value, r.status), (31, ErrorStatus::TaskAlreadyRunning));
+        }
+        other => panic!("{other:?}"),
+    }
+    match robot.handle(&Request::CancelNav, B, ms(5000)) {
+        Reply::AfterTask { task, .. } => {
+            assert_eq!(task.result.value, 32);
+            assert_eq!(task.result.outcome, NavOutcome::Cancelled);
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(robot.snapshot().last_task.map(|t| t.value), Some(32));
+}
+
+#[test]
 fn a_charging_point_ends_on_the_dock() {
     let mut robot = Robot::new(1.0);
     robot.handle(&task(&[point(3, 0.5, 0.0, PointInfo::Charging)]), A, ms(0));

@@ -2,9 +2,11 @@
 
 #![allow(dead_code)]
 
-use std::io::Read;
+use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpListener;
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::path::PathBuf;
+use std::process::{Child, ChildStdin, Command, ExitStatus, Stdio};
+use std::sync::mpsc::{self, Receiver};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
@@ -111,27 +113,159 @@ impl Running {
 
     /// Waits for the child to exit (killing it after `limit`) and collects its output.
     pub fn finish(mut self, limit: Duration) -> Run {
-        let deadline = Instant::now() + limit;
-        let status: ExitStatus = loop {
-            if let Some(status) = self.child.try_wait().expect("try_wait") {
-                break status;
-            }
-            if Instant::now() > deadline {
-                let _ = self.child.kill();
-                let _ = self.child.wait();
-                let stdout = self.stdout.join().unwrap_or_default();
-                let stderr = self.stderr.join().unwrap_or_default();
-                panic!(
-                    "x30ctl did not finish within {limit:?}\n--- stdout\n{stdout}\n--- stderr\n{stderr}"
-                );
-            }
-            thread::sleep(Duration::from_millis(5));
+        let Some(status) = wait_exit(&mut self.child, limit) else {
+            let stdout = self.stdout.join().unwrap_or_default();
+            let stderr = self.stderr.join().unwrap_or_default();
+            panic!(
+                "x30ctl did not finish within {limit:?}\n--- stdout\n{stdout}\n--- stderr\n{stderr}"
+            );
         };
         Run {
             code: status.code(),
             stdout: self.stdout.join().unwrap_or_default(),
             stderr: self.stderr.join().unwrap_or_default(),
         }
+    }
+}
+
+/// Waits for a child to exit; `None` if it has not after `limit`, when it is killed.
+fn wait_exit(child: &mut Child, limit: Duration) -> Option<ExitStatus> {
+    let deadline = Instant::now() + limit;
+    loop {
+        if let Some(status) = child.try_wait().expect("try_wait") {
+            return Some(status);
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            return None;
+        }
+        thread::sleep(Duration::from_millis(5));
+    }
+}
+
+/// A running x30ctl fed its standard input line by line, whose stdout is read line by line
+/// as it comes (for commands that answer each input line).
+pub struct Interactive {
+    child: Child,
+    stdin: Option<ChildStdin>,
+    lines: Receiver<String>,
+    /// Stdout lines received so far.
+    seen: Vec<String>,
+    stderr: JoinHandle<String>,
+}
+
+impl Interactive {
+    /// Writes one line to the child's standard input.
+    pub fn send(&mut self, line: &str) {
+        let stdin = self.stdin.as_mut().expect("stdin still open");
+        writeln!(stdin, "{line}").expect("the child reads its input");
+        stdin.flush().expect("flush");
+    }
+
+    /// Waits for a stdout line containing `needle` (at most `limit`) and returns it.
+    #[track_caller]
+    pub fn expect_line(&mut self, needle: &str, limit: Duration) -> String {
+        let deadline = Instant::now() + limit;
+        let mut searched = 0;
+        loop {
+            if let Some(line) = self.seen[searched..].iter().find(|l| l.contains(needle)) {
+                return line.clone();
+            }
+            searched = self.seen.len();
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left.max(Duration::from_millis(1))) {
+                Ok(line) => self.seen.push(line),
+                Err(_) => panic!(
+                    "no stdout line with {needle:?} within {limit:?}; stdout so far:\n{}",
+                    self.seen.join("\n")
+                ),
+            }
+        }
+    }
+
+    /// Closes standard input, waits for the child to exit (killing it after `limit`) and
+    /// collects its output.
+    pub fn finish(mut self, limit: Duration) -> Run {
+        drop(self.stdin.take());
+        let Some(status) = wait_exit(&mut self.child, limit) else {
+            panic!(
+                "x30ctl did not finish within {limit:?}; stdout so far:\n{}",
+                self.seen.join("\n")
+            );
+        };
+        // The reader thread ends with the child's stdout.
+        while let Ok(line) = self.lines.recv_timeout(limit) {
+            self.seen.push(line);
+        }
+        Run {
+            code: status.code(),
+            stdout: self.seen.iter().map(|l| format!("{l}\n")).collect(),
+            stderr: self.stderr.join().unwrap_or_default(),
+        }
+    }
+}
+
+/// Starts x30ctl against the simulator with its standard input and stdout line by line.
+pub fn spawn_interactive(sim: &Simulator, args: &[&str]) -> Interactive {
+    let addr = sim.addr().to_string();
+    let mut child = Command::new(BIN)
+        .args(["--robot", addr.as_str()])
+        .args(args)
+        .env_remove("X30_ROBOT")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("x30ctl starts");
+    let stdout = child.stdout.take().expect("stdout");
+    let (tx, lines) = mpsc::channel();
+    thread::spawn(move || {
+        for line in BufReader::new(stdout).lines() {
+            let Ok(line) = line else { break };
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    Interactive {
+        stdin: child.stdin.take(),
+        stderr: collect(child.stderr.take().expect("stderr")),
+        child,
+        lines,
+        seen: Vec::new(),
+    }
+}
+
+/// A path for a file in the temporary directory that no other test uses; the test removes
+/// it (a [`TempFile`] does so when dropped).
+pub struct TempFile(pub PathBuf);
+
+impl TempFile {
+    /// A fresh path ending in `name`; nothing is created.
+    pub fn new(name: &str) -> Self {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos());
+        Self(std::env::temp_dir().join(format!("x30ctl-{}-{nanos}-{name}", std::process::id())))
+    }
+
+    /// A fresh file holding `text`.
+    pub fn with(name: &str, text: &str) -> Self {
+        let file = Self::new(name);
+        std::fs::write(&file.0, text).expect("write a temporary file");
+        file
+    }
+
+    /// The path as text, for the command line.
+    pub fn arg(&self) -> String {
+        self.0.display().to_string()
+    }
+}
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
     }
 }
 
