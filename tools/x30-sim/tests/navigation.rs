@@ -140,7 +140,13 @@ fn a_multi_point_task_is_answered_once_and_logged_point_by_point() {
         "one answer for the task"
     );
     let log: Vec<_> = sim.task_log().iter().map(|e| (e.conn, e.event)).collect();
-    let conn = sim.requests()[0].conn;
+    // The task's connection: the monitor's first 1007 may have come before the 1003.
+    let conn = sim
+        .requests()
+        .iter()
+        .find(|e| e.message_type == Some(1003))
+        .expect("the 1003 is logged")
+        .conn;
     let waypoint = |index, value| {
         (
             conn,
