@@ -1,16 +1,19 @@
 #!/usr/bin/env bash
-# Builds the frame_xml fuzz target (host-tests/fuzz, a member of the host workspace in
-# tools/) and runs it with libFuzzer, on stable
+# Builds the fuzz targets (host-tests/fuzz, a member of the host workspace in tools/) and
+# runs each with libFuzzer, on stable
 # Rust: no nightly toolchain and no cargo-fuzz needed. libfuzzer-sys compiles libFuzzer's
 # C++ with the system C++ compiler (g++ or clang++; set CXX to choose).
 #
 #   scripts/fuzz.sh [SECONDS] [extra libFuzzer flags...]
 #
-# SECONDS defaults to 30. The fuzzer works on a copy of the committed seed corpus in a
-# temporary directory, so host-tests/fuzz/corpus/ only changes when someone copies an input
-# into it on purpose. Crashing inputs are written to host-tests/fuzz/artifacts/frame_xml/
-# (ignored by git); the script then exits non-zero. Reproduce one with
-#   tools/target/fuzz/<host>/fuzz/frame_xml <artifact>
+# The targets: frame_xml (frame decoder and both message decoders on a byte stream) and
+# read_paths (the reader's layout shortcuts against its general path, and
+# decode(encode(x)) == x). Each runs for SECONDS, default 30. The fuzzer works on a copy of
+# the committed seed corpus (host-tests/fuzz/corpus/<target>/, written by gen_corpus.py) in
+# a temporary directory, so the corpus only changes when someone copies an input into it on
+# purpose. Crashing inputs are written to host-tests/fuzz/artifacts/<target>/ (ignored by
+# git); the script then exits non-zero. Reproduce one with
+#   tools/target/fuzz/<host>/fuzz/<target> <artifact>
 set -euo pipefail
 
 DUR="${1:-30}"
@@ -35,29 +38,29 @@ export RUSTFLAGS="-Cpasses=sancov-module \
 # Its own target directory: the coverage flags would otherwise rebuild every dependency of
 # the host workspace's other builds, and theirs this one's.
 TARGET_DIR="$FUZZ_DIR/../../tools/target/fuzz"
-cargo build --profile fuzz -p x30-fuzz --bin frame_xml --target-dir "$TARGET_DIR"
+cargo build --profile fuzz -p x30-fuzz --bins --target-dir "$TARGET_DIR"
 
 HOST="$(rustc -vV | sed -n 's/^host: //p')"
-BIN="$TARGET_DIR/$HOST/fuzz/frame_xml"
-ARTIFACTS="$FUZZ_DIR/artifacts/frame_xml"
-mkdir -p "$ARTIFACTS"
-
 WORK="$(mktemp -d)"
 trap 'rm -rf "$WORK"' EXIT
-cp -R corpus/frame_xml "$WORK/corpus"
 
-status=0
-"$BIN" "$WORK/corpus" \
-  -max_total_time="$DUR" \
-  -rss_limit_mb=2048 \
-  -max_len=8192 \
-  -print_final_stats=1 \
-  -dict="$FUZZ_DIR/frame_xml.dict" \
-  -artifact_prefix="$ARTIFACTS/" \
-  "$@" || status=$?
-
-if [ "$status" -ne 0 ]; then
-  echo "fuzz.sh: the fuzzer stopped with status $status; crashing inputs are in $ARTIFACTS" >&2
-  exit "$status"
-fi
-echo "fuzz.sh: no crash in ${DUR}s"
+for target in frame_xml read_paths; do
+  BIN="$TARGET_DIR/$HOST/fuzz/$target"
+  ARTIFACTS="$FUZZ_DIR/artifacts/$target"
+  mkdir -p "$ARTIFACTS"
+  cp -R "corpus/$target" "$WORK/$target"
+  status=0
+  "$BIN" "$WORK/$target" \
+    -max_total_time="$DUR" \
+    -rss_limit_mb=2048 \
+    -max_len=8192 \
+    -print_final_stats=1 \
+    -dict="$FUZZ_DIR/frame_xml.dict" \
+    -artifact_prefix="$ARTIFACTS/" \
+    "$@" || status=$?
+  if [ "$status" -ne 0 ]; then
+    echo "fuzz.sh: $target stopped with status $status; crashing inputs are in $ARTIFACTS" >&2
+    exit "$status"
+  fi
+  echo "fuzz.sh: $target: no crash in ${DUR}s"
+done

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the seed corpus of the frame_xml fuzz target into corpus/frame_xml/.
+"""Writes the seed corpora of the fuzz targets: corpus/frame_xml/ and corpus/read_paths/.
 
 The seeds are the sample messages of the vendor's protocol document (V1.0.12, every Type,
 request and response, as printed there, quirks included), plus the variations real traffic
@@ -7,8 +7,9 @@ shows (docs/protocol.md, "Beyond the document") and the stream situations the fr
 decoder must handle.
 Frames are built here by hand, independently of the crate's encoder.
 
-Each file is one fuzz input: a mode byte, read sizes, then the byte stream (see the comment
-at the top of fuzz_targets/frame_xml.rs). Run it from anywhere:
+Each frame_xml input is a mode byte, read sizes, then the byte stream (see the comment at
+the top of fuzz_targets/frame_xml.rs); each read_paths input is one bare body. Run it from
+anywhere:
 
     python3 host-tests/fuzz/gen_corpus.py
 
@@ -20,6 +21,7 @@ import struct
 from pathlib import Path
 
 OUT = Path(__file__).resolve().parent / "corpus" / "frame_xml"
+OUT_BODIES = Path(__file__).resolve().parent / "corpus" / "read_paths"
 SYNC = b"\xEB\x90\xEB\x90"
 
 
@@ -195,6 +197,15 @@ def main():
         (OUT / f"regress-{name}").write_bytes(b"\x00" + frame(body))
         count += 1
     print(f"wrote {count} inputs to {OUT}")
+    OUT_BODIES.mkdir(parents=True, exist_ok=True)
+    for old in [*OUT_BODIES.glob("seed-*"), *OUT_BODIES.glob("regress-*")]:
+        old.unlink()
+    bodies = {**VENDOR, **MOTION, **REAL}
+    for name, body in bodies.items():
+        (OUT_BODIES / f"seed-{name}").write_bytes(body.encode() if isinstance(body, str) else body)
+    for name, body in REGRESSIONS.items():
+        (OUT_BODIES / f"regress-{name}").write_bytes(body.encode())
+    print(f"wrote {len(bodies) + len(REGRESSIONS)} inputs to {OUT_BODIES}")
 
 
 if __name__ == "__main__":

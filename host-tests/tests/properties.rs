@@ -10,6 +10,9 @@
 //!   valid documents; whatever they accept re-encodes to a document that decodes the same.
 //! - The decoders tolerate the layouts real traffic uses: either declaration or none, any
 //!   indentation, comments inside `<Items>`, elements in any order.
+//! - On all of those documents, the reader's shortcuts for the usual layout change nothing:
+//!   `decode` returns exactly what `decode_general` returns, and `read_document` hands out
+//!   exactly what `read_document_general` hands out.
 //!
 //! Case counts are set per property so the file runs in well under a minute with the
 //! test profile (opt-level 2); `PROPTEST_CASES` overrides them all for a longer run.
@@ -28,6 +31,7 @@ use x30_panel::proto::message::*;
 use x30_panel::proto::time::Timestamp;
 use x30_panel::proto::xml::number::NumberError;
 use x30_panel::proto::xml::writer::WriteError;
+use x30_panel::proto::xml::{Items, StructureError, read_document, read_document_general};
 
 /// The buffer the round-trip properties encode into: 4 KiB, which holds every message but
 /// the longest 1003 requests (see `encode_to_vec`).
@@ -423,6 +427,52 @@ fn check_reencode(body: &[u8]) -> Result<(), TestCaseError> {
     Ok(())
 }
 
+/// Checks that the reader's shortcuts for the usual layout yield exactly what the general
+/// path yields on `body`: the same decoded request and response (or the same error), and
+/// the same items, envelope and errors from the document reader.
+fn check_shortcuts(body: &[u8]) -> Result<(), TestCaseError> {
+    // Debug text, so that a NaN would compare equal to itself.
+    prop_assert_eq!(
+        format!("{:?}", Request::decode(body)),
+        format!("{:?}", Request::decode_general(body)),
+        "Request::decode of {:?}",
+        text(body)
+    );
+    prop_assert_eq!(
+        format!("{:?}", Response::decode(body)),
+        format!("{:?}", Response::decode_general(body)),
+        "Response::decode of {:?}",
+        text(body)
+    );
+    prop_assert_eq!(
+        reader_trace(body, true),
+        reader_trace(body, false),
+        "read_document of {:?}",
+        text(body)
+    );
+    Ok(())
+}
+
+/// Everything the document reader hands out for `body`, with or without its shortcuts.
+fn reader_trace(body: &[u8], shortcuts: bool) -> String {
+    let mut trace = String::new();
+    let mut on_items = |envelope: &_, items: &mut Items<'_>| {
+        trace.push_str(&format!("block {envelope:?}:"));
+        for item in items {
+            let item = item.map_err(StructureError::Xml)?;
+            trace.push_str(&format!(" {}={:?}", text(item.name), item.text.map(text)));
+        }
+        trace.push('\n');
+        Ok::<_, StructureError>(())
+    };
+    let result = if shortcuts {
+        read_document(body, &mut on_items)
+    } else {
+        read_document_general(body, &mut on_items)
+    };
+    format!("{trace}{result:?}")
+}
+
 // ---------------------------------------------------------------------------------------
 // Frame decoder harness
 // ---------------------------------------------------------------------------------------
@@ -810,6 +860,8 @@ impl Declaration {
 
 #[derive(Debug, Clone, Copy)]
 enum Indent {
+    /// Four spaces per level, as real robots write.
+    Robot,
     Tabs,
     Nothing,
     CrLfSpaces,
@@ -836,6 +888,7 @@ fn render(declaration: Declaration, indent: Indent, lines: &[Line]) -> Vec<u8> {
         Indent::Tabs => ("\t", "\n"),
         Indent::Nothing => ("", ""),
         Indent::CrLfSpaces => ("  ", "\r\n"),
+        Indent::Robot => ("    ", "\n"),
     };
     let mut out = String::from(declaration.text());
     if !matches!(declaration, Declaration::None) {
@@ -931,6 +984,7 @@ proptest! {
     #[test]
     fn message_round_trip(message in message(), time in timestamp()) {
         let body = message.encode_to_vec(&time)?;
+        check_shortcuts(&body)?;
         prop_assert_eq!(
             message.decode_like(&body),
             Ok(Decoded { time, message: message.clone() }),
@@ -1088,6 +1142,7 @@ proptest! {
         ],
     ) {
         check_reencode(&bytes)?;
+        check_shortcuts(&bytes)?;
     }
 
     /// The message decoders never panic on mutations of valid documents (byte changes,
@@ -1104,6 +1159,7 @@ proptest! {
             mutate(&mut body, m);
         }
         check_reencode(&body)?;
+        check_shortcuts(&body)?;
     }
 }
 
@@ -1111,7 +1167,8 @@ proptest! {
     #![proptest_config(cases(4096))]
 
     /// A document with another declaration (double or single quotes, a space before `?>`, a
-    /// byte-order mark, or none), re-indented with tabs, CR LF or no whitespace at all, and
+    /// byte-order mark, or none), re-indented as robots do, with tabs, CR LF or no whitespace
+    /// at all, and
     /// with a comment inside `<Items>`, decodes to the same message.
     #[test]
     fn decoders_tolerate_layout(
@@ -1124,7 +1181,12 @@ proptest! {
             Just(Declaration::WithBom),
             Just(Declaration::None),
         ],
-        indent in prop_oneof![Just(Indent::Tabs), Just(Indent::Nothing), Just(Indent::CrLfSpaces)],
+        indent in prop_oneof![
+            Just(Indent::Robot),
+            Just(Indent::Tabs),
+            Just(Indent::Nothing),
+            Just(Indent::CrLfSpaces),
+        ],
         comment in proptest::option::of((any::<Index>(), "[a-zA-Z0-9 <>&;'\"=/?!.\u{6ce8}\u{91ca}]{0,24}")),
     ) {
         let body = message.encode_to_vec(&time)?;
@@ -1133,6 +1195,7 @@ proptest! {
             insert_comment(&mut lines, *at, comment);
         }
         let relaid = render(declaration, indent, &lines);
+        check_shortcuts(&relaid)?;
         prop_assert_eq!(
             message.decode_like(&relaid),
             Ok(Decoded { time, message: message.clone() }),
@@ -1149,6 +1212,7 @@ proptest! {
         let body = message.encode_to_vec(&time)?;
         let lines = shuffle_elements(&lines_of(&body), seed);
         let shuffled = render(Declaration::Double, Indent::Tabs, &lines);
+        check_shortcuts(&shuffled)?;
         prop_assert_eq!(
             message.decode_like(&shuffled),
             Ok(Decoded { time, message: message.clone() }),

@@ -9,9 +9,9 @@
 
 use super::DecodeError;
 use crate::proto::codes::Code;
+use crate::proto::xml::Items;
 use crate::proto::xml::number;
 use crate::proto::xml::writer::{DocumentWriter, WriteError};
-use crate::proto::xml::{Item, Items};
 
 /// What an item holds on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -156,14 +156,34 @@ fn read_values(
     spec: &[ItemSpec],
     values: &mut [Raw],
 ) -> Result<(), DecodeError> {
-    for item in items {
+    // Documents list items in the table's order, so the search starts after the item found
+    // last: a known item is then found at the first comparison. Names are unique in a
+    // table, so where the search starts cannot change what it finds.
+    let mut next = 0;
+    loop {
+        // The usual layout: the item the table lists next, written plainly.
+        let expected = spec.get(next).zip(values.get_mut(next));
+        if let Some((spec, value)) = expected
+            && let Some(text) = items.next_named(spec.name)
+        {
+            *value = Some(parse_text(Some(text), spec)?);
+            next += 1;
+            continue;
+        }
+        let Some(item) = items.next() else {
+            break;
+        };
         let item = item?;
-        let known = spec
-            .iter()
-            .zip(values.iter_mut())
-            .find(|(s, _)| item.name.eq_ignore_ascii_case(s.name.as_bytes()));
-        if let Some((spec, value)) = known {
-            *value = Some(parse_item(&item, spec)?);
+        let matches = |s: &ItemSpec| item.name.eq_ignore_ascii_case(s.name.as_bytes());
+        let (earlier, later) = spec.split_at_checked(next).unwrap_or_default();
+        let index = match later.iter().position(matches) {
+            Some(i) => Some(next + i),
+            None => earlier.iter().position(matches),
+        };
+        let known = index.and_then(|i| Some((i, spec.get(i)?, values.get_mut(i)?)));
+        if let Some((index, spec, value)) = known {
+            *value = Some(parse_text(item.text, spec)?);
+            next = index + 1;
         }
     }
     match spec
@@ -176,13 +196,14 @@ fn read_values(
     }
 }
 
-/// Parses one item's text as its spec says, naming the item on failure.
-pub(crate) fn parse_item(item: &Item<'_>, spec: &ItemSpec) -> Result<u32, DecodeError> {
+/// Parses one item's text (`None`: it holds elements) as its spec says, naming the item on
+/// failure.
+pub(crate) fn parse_text(text: Option<&[u8]>, spec: &ItemSpec) -> Result<u32, DecodeError> {
     let bad = |error| DecodeError::BadItem {
         item: spec.name,
         error,
     };
-    let text = item.text.ok_or(DecodeError::ItemNotText(spec.name))?;
+    let text = text.ok_or(DecodeError::ItemNotText(spec.name))?;
     match spec.kind {
         Kind::Float => number::parse_f32(text).map(f32::to_bits).map_err(bad),
         Kind::Int => number::parse_int::<i32>(text)

@@ -21,10 +21,10 @@ pub use status::{Battery, MapImage, MotorTemperatures, Perception, RobotStatus};
 use crate::proto::codes::{MessageType, MotionCommandCode, MotionGait, RequestErrorCode};
 use crate::proto::time::Timestamp;
 use crate::proto::xml::number::NumberError;
-use crate::proto::xml::reader::XmlError;
+use crate::proto::xml::reader::{Tokenizer, XmlError};
 use crate::proto::xml::writer::{DocumentWriter, WriteError};
-use crate::proto::xml::{Envelope, Items, StructureError, read_document};
-use items::{ItemSet, ItemSpec, Kind, item_set, parse_item};
+use crate::proto::xml::{Envelope, Items, StructureError, read_tokens};
+use items::{ItemSet, ItemSpec, Kind, item_set, parse_text};
 
 /// Longest body a valid request encodes to: a 1003 request with [`MAX_NAV_POINTS`]
 /// waypoints whose every number has its longest text. A receiver that accepts bodies this
@@ -269,9 +269,19 @@ impl Request {
 
     /// Reads a request body.
     pub fn decode(asdu: &[u8]) -> Result<Decoded<Self>, DecodeError> {
+        Self::decode_from(Tokenizer::document(asdu))
+    }
+
+    /// [`Request::decode`] without the shortcuts for the usual layout: the reference they
+    /// are tested against, with exactly the same results.
+    pub fn decode_general(asdu: &[u8]) -> Result<Decoded<Self>, DecodeError> {
+        Self::decode_from(Tokenizer::document(asdu).without_shortcut())
+    }
+
+    fn decode_from(tokens: Tokenizer<'_>) -> Result<Decoded<Self>, DecodeError> {
         let mut message = None;
         let mut points = heapless::Vec::<NavPoint, MAX_NAV_POINTS>::new();
-        let (envelope, blocks) = read_document(asdu, |envelope, items| {
+        let (envelope, blocks) = read_tokens(tokens, |envelope, items| {
             match MessageType::from_raw(envelope.message_type) {
                 // Each block is one waypoint; read_document allows no more blocks than fit.
                 MessageType::NavTask => points.push(NavPoint::read_items(items)?).map_err(|_| {
@@ -369,8 +379,18 @@ impl Response {
 
     /// Reads a response body.
     pub fn decode(asdu: &[u8]) -> Result<Decoded<Self>, DecodeError> {
+        Self::decode_from(Tokenizer::document(asdu))
+    }
+
+    /// [`Response::decode`] without the shortcuts for the usual layout: the reference they
+    /// are tested against, with exactly the same results.
+    pub fn decode_general(asdu: &[u8]) -> Result<Decoded<Self>, DecodeError> {
+        Self::decode_from(Tokenizer::document(asdu).without_shortcut())
+    }
+
+    fn decode_from(tokens: Tokenizer<'_>) -> Result<Decoded<Self>, DecodeError> {
         let mut message = None;
-        let (envelope, blocks) = read_document(asdu, |envelope, items| {
+        let (envelope, blocks) = read_tokens(tokens, |envelope, items| {
             if message.is_none() {
                 message = Some(Self::read_items(envelope, items)?);
             }
@@ -426,7 +446,7 @@ fn read_motion(command: i32, items: &mut Items<'_>) -> Result<MotionCommand, Dec
     for item in items {
         let item = item?;
         if item.name == b"Value" {
-            value = Some(parse_item(&item, &spec)?);
+            value = Some(parse_text(item.text, &spec)?);
         }
     }
     let bits = value.ok_or(DecodeError::MissingItem("Value"))?;

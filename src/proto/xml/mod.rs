@@ -63,12 +63,38 @@ pub struct Envelope {
 /// once the pass has found both. Returns the envelope and the number of blocks.
 pub fn read_document<'a, E>(
     input: &'a [u8],
+    on_items: impl FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
+) -> Result<(Envelope, usize), E>
+where
+    E: From<StructureError>,
+{
+    read_tokens(Tokenizer::document(input), on_items)
+}
+
+/// [`read_document`] without the shortcut for the usual layout
+/// ([`Tokenizer::simple_element`]): every element is read token by token. It returns
+/// exactly what [`read_document`] returns; it exists as the reference the shortcut is
+/// tested against.
+pub fn read_document_general<'a, E>(
+    input: &'a [u8],
+    on_items: impl FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
+) -> Result<(Envelope, usize), E>
+where
+    E: From<StructureError>,
+{
+    read_tokens(Tokenizer::document(input).without_shortcut(), on_items)
+}
+
+/// [`read_document`] from a tokenizer made by [`Tokenizer::document`], with or without its
+/// shortcut.
+pub(crate) fn read_tokens<'a, E>(
+    mut tokens: Tokenizer<'a>,
     mut on_items: impl FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
 ) -> Result<(Envelope, usize), E>
 where
     E: From<StructureError>,
 {
-    let mut tokens = Tokenizer::document(input);
+    let input = tokens.input();
     let xml = |e: XmlError| E::from(StructureError::Xml(e));
     match tokens.next_token().map_err(xml)? {
         Some(Token::Start(b"PatrolDevice")) => {}
@@ -80,21 +106,35 @@ where
     let mut deferred = [const { 0..0 }; MAX_ITEMS_BLOCKS];
     let mut deferred_count = 0;
     let mut blocks = 0;
-    while let Some(token) = tokens.next_token().map_err(xml)? {
+    loop {
+        // Header lines and unknown plain elements in the usual layout, without tokens.
+        if let Some(element) = tokens.simple_element().filter(|e| e.name != b"Items") {
+            tokens.take(&element);
+            match element.name {
+                b"Type" => message_type = Some(header_int(element.text, "Type")?),
+                b"Command" => command = Some(header_int(element.text, "Command")?),
+                b"Time" => time = header_time(element.text)?,
+                _ => {}
+            }
+            continue;
+        }
+        let Some(token) = tokens.next_token().map_err(xml)? else {
+            break;
+        };
         let (live, empty) = match token {
             Token::Start(b"Items") => (true, false),
             Token::Empty(b"Items") => (false, true),
             Token::Start(b"Type") => {
-                message_type = Some(header_int(&mut tokens, "Type")?);
+                message_type = Some(header_int(header_text(&mut tokens, "Type")?, "Type")?);
                 continue;
             }
             Token::Start(b"Command") => {
-                command = Some(header_int(&mut tokens, "Command")?);
+                let text = header_text(&mut tokens, "Command")?;
+                command = Some(header_int(text, "Command")?);
                 continue;
             }
             Token::Start(b"Time") => {
-                let text = header_text(&mut tokens, "Time")?;
-                time = Timestamp::decode(text).map_err(|_| StructureError::BadTime)?;
+                time = header_time(header_text(&mut tokens, "Time")?)?;
                 continue;
             }
             Token::Start(_) => {
@@ -115,7 +155,7 @@ where
                     time,
                 };
                 if empty {
-                    on_items(&envelope, &mut Items::fragment(&[]))?;
+                    on_items(&envelope, &mut Items::fragment(&[], tokens.has_shortcut()))?;
                 } else {
                     let mut items = Items::inside(tokens.clone());
                     on_items(&envelope, &mut items)?;
@@ -142,8 +182,8 @@ where
         time,
     };
     for range in deferred.iter().take(deferred_count) {
-        let content = tokens.input().get(range.clone()).unwrap_or_default();
-        let mut items = Items::fragment(content);
+        let content = input.get(range.clone()).unwrap_or_default();
+        let mut items = Items::fragment(content, tokens.has_shortcut());
         on_items(&envelope, &mut items)?;
         items.finish().map_err(xml)?;
     }
@@ -173,8 +213,12 @@ fn header_text<'a>(
         .ok_or(StructureError::NotText(name))
 }
 
-fn header_int(tokens: &mut Tokenizer<'_>, name: &'static str) -> Result<i32, StructureError> {
-    number::parse_int(header_text(tokens, name)?).map_err(|e| StructureError::BadNumber(name, e))
+fn header_int(text: &[u8], name: &'static str) -> Result<i32, StructureError> {
+    number::parse_int(text).map_err(|e| StructureError::BadNumber(name, e))
+}
+
+fn header_time(text: &[u8]) -> Result<Timestamp, StructureError> {
+    Timestamp::decode(text).map_err(|_| StructureError::BadTime)
 }
 
 /// One item: its element name and, if it holds only text, that text with surrounding
@@ -207,10 +251,16 @@ impl<'a> Items<'a> {
         }
     }
 
-    /// Items read from the content of a block remembered earlier.
-    fn fragment(content: &'a [u8]) -> Self {
+    /// Items read from the content of a block remembered earlier, with or without the
+    /// shortcut as the document was read.
+    fn fragment(content: &'a [u8], shortcut: bool) -> Self {
+        let tokens = Tokenizer::fragment(content);
         Self {
-            tokens: Tokenizer::fragment(content),
+            tokens: if shortcut {
+                tokens
+            } else {
+                tokens.without_shortcut()
+            },
             depth: 0,
             done: false,
         }
@@ -226,11 +276,34 @@ impl<'a> Items<'a> {
     }
 }
 
+impl<'a> Items<'a> {
+    /// The next item's trimmed text if it is `name`, written plainly (`<name>text</name>`):
+    /// the usual layout, where items follow their table's order. Consumes nothing and
+    /// returns `None` otherwise; [`Items::next`] then reads whatever is there. Returns
+    /// exactly what [`Items::next`] would have.
+    #[inline]
+    pub fn next_named(&mut self, name: &str) -> Option<&'a [u8]> {
+        if self.done {
+            return None;
+        }
+        let element = self.tokens.simple_element_named(name.as_bytes())?;
+        self.tokens.take(&element);
+        Some(element.text)
+    }
+}
+
 impl<'a> Iterator for Items<'a> {
     type Item = Result<Item<'a>, XmlError>;
 
     fn next(&mut self) -> Option<Self::Item> {
         while !self.done {
+            if let Some(element) = self.tokens.simple_element() {
+                self.tokens.take(&element);
+                return Some(Ok(Item {
+                    name: element.name,
+                    text: Some(element.text),
+                }));
+            }
             let token = match self.tokens.next_token() {
                 Ok(Some(token)) => token,
                 Ok(None) => break,

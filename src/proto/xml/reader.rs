@@ -81,6 +81,19 @@ pub struct Tokenizer<'a> {
     depth: usize,
     place: Place,
     fragment: bool,
+    /// Whether [`Tokenizer::simple_element`] may take its shortcut.
+    shortcut: bool,
+}
+
+/// A plain `<name>text</name>` element found by [`Tokenizer::simple_element`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SimpleElement<'a> {
+    /// The element name.
+    pub name: &'a [u8],
+    /// The text, with surrounding whitespace removed.
+    pub text: &'a [u8],
+    /// Offset just past the end tag.
+    end: usize,
 }
 
 impl<'a> Tokenizer<'a> {
@@ -94,7 +107,23 @@ impl<'a> Tokenizer<'a> {
             depth: 0,
             place: Place::Prolog,
             fragment: false,
+            shortcut: true,
         }
+    }
+
+    /// The same tokenizer with [`Tokenizer::simple_element`] always declining, so that every
+    /// element goes through [`Tokenizer::next_token`]: the reference the shortcut is tested
+    /// against.
+    pub fn without_shortcut(self) -> Self {
+        Self {
+            shortcut: false,
+            ..self
+        }
+    }
+
+    /// Whether [`Tokenizer::simple_element`] may take its shortcut.
+    pub fn has_shortcut(&self) -> bool {
+        self.shortcut
     }
 
     /// A tokenizer for element content already checked by a document pass, such as the
@@ -120,6 +149,74 @@ impl<'a> Tokenizer<'a> {
     /// The input the offsets refer to.
     pub fn input(&self) -> &'a [u8] {
         self.input
+    }
+
+    /// The shortcut for the usual layout of an item or header line: if what follows (after
+    /// whitespace) is a plain `<name>text</name>` (no attributes, comments, references or
+    /// child elements, the end tag written exactly), returns it without consuming it.
+    ///
+    /// Whenever it returns an element, [`Tokenizer::next_token`] would have read the same
+    /// thing as whitespace text, `Start(name)`, `Text` and `End(name)`, with no error, so
+    /// [`Tokenizer::take`] followed by the caller's use of the element is exactly what the
+    /// general path does; anything else declines and leaves the general path to read (or
+    /// refuse) it. Checked by the `read_paths` fuzz target and property tests.
+    #[inline]
+    pub fn simple_element(&self) -> Option<SimpleElement<'a>> {
+        let (at, tag) = self.simple_start()?;
+        let name_len = run(tag, NAME_BYTE);
+        self.simple_rest(at, tag, name_len)
+    }
+
+    /// [`Tokenizer::simple_element`] for an element expected to be called `name` (the next
+    /// item of a table, in the usual layout): the name is compared rather than scanned, and
+    /// anything else declines.
+    #[inline]
+    pub fn simple_element_named(&self, name: &[u8]) -> Option<SimpleElement<'a>> {
+        let (at, tag) = self.simple_start()?;
+        // `name>` at the start of the tag is exactly a name scan that stops at `>`, for
+        // the names of the item tables (made of name bytes).
+        tag.strip_prefix(name)?;
+        self.simple_rest(at, tag, name.len())
+    }
+
+    /// Where a simple element may start: inside an element, with room for one more level,
+    /// after whitespace; the offset of its `<` and what follows it.
+    #[inline]
+    fn simple_start(&self) -> Option<(usize, &'a [u8])> {
+        // Text is only allowed inside an element (or a fragment).
+        let inside = self.place == Place::Root && (self.depth > 0 || self.fragment);
+        if !self.shortcut || !inside || self.depth >= MAX_DEPTH {
+            return None;
+        }
+        let rest = self.rest();
+        let at = skip_spaces(rest);
+        let tag = rest.get(at..)?.strip_prefix(b"<")?;
+        Some((self.pos + at, tag))
+    }
+
+    /// The rest of a simple element whose name (`name_len` bytes of `tag`) has been found.
+    #[inline]
+    fn simple_rest(&self, at: usize, tag: &'a [u8], name_len: usize) -> Option<SimpleElement<'a>> {
+        let (name, after) = tag.split_at_checked(name_len)?;
+        let content = after.strip_prefix(b">").filter(|_| !name.is_empty())?;
+        let (text, after) = content.split_at_checked(text_len(content)?)?;
+        let after = after
+            .strip_prefix(b"</")?
+            .strip_prefix(name)?
+            .strip_prefix(b">")?;
+        // at + '<' + name + '>' + text + '</' + name + '>'
+        let end = at + 2 * name_len + text.len() + 5;
+        debug_assert_eq!(self.input.len() - after.len(), end);
+        Some(SimpleElement {
+            name,
+            text: text.trim_ascii(),
+            end,
+        })
+    }
+
+    /// Moves past an element returned by [`Tokenizer::simple_element`].
+    pub fn take(&mut self, element: &SimpleElement<'a>) {
+        self.pos = element.end;
     }
 
     fn error(&self, kind: XmlErrorKind) -> XmlError {
@@ -311,14 +408,97 @@ fn is_char_reference(entity: &[u8]) -> bool {
     }
 }
 
+/// A byte that may appear in an XML name (as far as this reader checks names).
+const NAME_BYTE: u8 = 1;
+/// ASCII whitespace, as [`u8::is_ascii_whitespace`] defines it.
+const SPACE_BYTE: u8 = 2;
+/// A byte that ends plain text: `<` (markup) or `&` (a reference).
+const TEXT_END: u8 = 4;
+
+/// The class of every byte, so that the scanning loops cost one lookup per byte instead of
+/// a chain of comparisons.
+static CLASSES: [u8; 256] = classes();
+
+#[expect(
+    clippy::indexing_slicing,
+    reason = "the index is below 256 by the loop's bound"
+)]
+const fn classes() -> [u8; 256] {
+    let mut table = [0; 256];
+    let mut b = 0;
+    while b < 256 {
+        let c = b as u8;
+        table[b] =
+            if c.is_ascii_alphanumeric() || matches!(c, b'_' | b'-' | b'.' | b':') || c >= 0x80 {
+                NAME_BYTE
+            } else if c.is_ascii_whitespace() {
+                SPACE_BYTE
+            } else if c == b'<' || c == b'&' {
+                TEXT_END
+            } else {
+                0
+            };
+        b += 1;
+    }
+    table
+}
+
+/// Whether `b` is of one of the `classes`.
+#[inline(always)]
+fn is(b: u8, classes: u8) -> bool {
+    CLASSES
+        .get(usize::from(b))
+        .is_some_and(|c| c & classes != 0)
+}
+
+/// Length of the run of bytes of `classes` at the start of `bytes`.
+#[inline(always)]
+fn run(bytes: &[u8], classes: u8) -> usize {
+    bytes.iter().take_while(|&&b| is(b, classes)).count()
+}
+
+/// Length of the whitespace at the start of `bytes`; runs of eight spaces (indentation) are
+/// skipped a word at a time.
+#[inline]
+fn skip_spaces(bytes: &[u8]) -> usize {
+    let mut at = 0;
+    loop {
+        if bytes.get(at..at + 8) == Some(b"        ".as_slice()) {
+            at += 8;
+        } else if bytes.get(at).is_some_and(|&b| is(b, SPACE_BYTE)) {
+            at += 1;
+        } else {
+            return at;
+        }
+    }
+}
+
+/// Length of the plain text at the start of `bytes`: up to the first `<` or `&`, found a
+/// word at a time; `None` if there is neither.
+#[inline]
+fn text_len(bytes: &[u8]) -> Option<usize> {
+    const ONES: u64 = u64::from_le_bytes([1; 8]);
+    const HIGHS: u64 = ONES << 7;
+    // A byte of `x` is zero exactly where the lowest set high bit of `zero_bytes(x)` is: a
+    // borrow can only mark bytes above a zero byte, never below one.
+    let zero_bytes = |x: u64| x.wrapping_sub(ONES) & !x & HIGHS;
+    let mut at = 0;
+    while let Some(word) = bytes.get(at..at + 8).and_then(|w| w.try_into().ok()) {
+        let word = u64::from_le_bytes(word);
+        let ends = zero_bytes(word ^ (ONES * u64::from(b'<')))
+            | zero_bytes(word ^ (ONES * u64::from(b'&')));
+        if ends != 0 {
+            return Some(at + (ends.trailing_zeros() / 8) as usize);
+        }
+        at += 8;
+    }
+    let tail = bytes.get(at..)?;
+    tail.iter().position(|&b| is(b, TEXT_END)).map(|i| at + i)
+}
+
 /// Length of the XML name at the start of `bytes`.
 fn name_len(bytes: &[u8]) -> usize {
-    bytes
-        .iter()
-        .take_while(|&&b| {
-            b.is_ascii_alphanumeric() || matches!(b, b'_' | b'-' | b'.' | b':') || b >= 0x80
-        })
-        .count()
+    run(bytes, NAME_BYTE)
 }
 
 /// Position of `needle` in `haystack`.
