@@ -19,7 +19,7 @@
 //! Then criterion measures every operation, and finally the binary times each operation
 //! itself (warm-up, then the best of many short samples, ours and the reference sampled
 //! alternately so that load from other processes falls on both alike) and prints a summary
-//! table with the speedups against the project's targets (decode ≥ 3×, encode ≥ 5×, zero
+//! table with the speedups against the project's targets (decode and encode ≥ 10×, zero
 //! allocations), the tokenizer comparison, and a breakdown of where our 1002 decode and
 //! encode spend their time. Timing is reported, never asserted.
 //!
@@ -738,6 +738,9 @@ fn summary(f: &Fixtures, allocs: &AllocationReport, quick: bool) {
         .expect("the document reads");
         n
     });
+    let general_decode = time_op(budget, || {
+        Response::decode_general(black_box(STATUS_1002.as_bytes())).map(|d| d.time.second)
+    });
     let parse_ours = time_op(budget, || {
         let mut sum = 0.0f32;
         for t in &float_texts {
@@ -836,7 +839,9 @@ fn summary(f: &Fixtures, allocs: &AllocationReport, quick: bool) {
         "encode 1002 status",
         "encode 1003 nav task",
     ];
-    let targets = [3.0, 3.0, 5.0, 5.0];
+    // Issue 13's targets: at least 10x quick-xml + serde in each direction on each message
+    // (15x is the stretch goal for decoding).
+    let targets = [10.0, 10.0, 10.0, 10.0];
     println!();
     println!("==================== x30-panel codec vs quick-xml 0.42 + serde ====================");
     println!(
@@ -867,16 +872,21 @@ fn summary(f: &Fixtures, allocs: &AllocationReport, quick: bool) {
         "------------------------------------------------------------------------------------"
     );
     println!(
-        "decode speedup = serde_ns / ours_ns (both messages): {decode_speedup:.2}x  target >= 3x: {}",
-        if decode_speedup >= 3.0 {
+        "decode speedup = serde_ns / ours_ns (both messages): {decode_speedup:.2}x  target >= 10x: {}  stretch >= 15x: {}",
+        if decode_speedup >= 10.0 {
+            "met"
+        } else {
+            "NOT met"
+        },
+        if decode_speedup >= 15.0 {
             "met"
         } else {
             "NOT met"
         }
     );
     println!(
-        "encode speedup = serde_ns / ours_ns (both messages): {encode_speedup:.2}x  target >= 5x: {}",
-        if encode_speedup >= 5.0 {
+        "encode speedup = serde_ns / ours_ns (both messages): {encode_speedup:.2}x  target >= 10x: {}",
+        if encode_speedup >= 10.0 {
             "met"
         } else {
             "NOT met"
@@ -926,6 +936,7 @@ fn summary(f: &Fixtures, allocs: &AllocationReport, quick: bool) {
         "  full decode                                 {:>8.0}",
         ours[0]
     );
+    println!("  full decode, general path (no shortcuts)    {general_decode:>8.0}");
     println!(
         "  write {} floats, ours                       {write_floats_ours:>8.0}   (core Display: {write_floats_core:.0})",
         float_values.len()

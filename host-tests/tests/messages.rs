@@ -914,6 +914,39 @@ fn encoding_into_a_small_buffer_fails_rather_than_truncates() {
     assert_eq!(Request::Status.encode(&T0, &mut exact), Ok(n));
 }
 
+/// Items near the buffer's end: a number is formatted in place only where the buffer has
+/// room for its longest text, so the last items of an exactly sized buffer take the other
+/// path (formatted aside, copied if it fits). Both must give the same bytes, and every
+/// shorter buffer must fail.
+#[test]
+fn number_items_fit_an_exactly_sized_buffer() {
+    use x30_panel::proto::xml::writer::WriteError;
+    let requests = [
+        Request::Relocalize(Relocalize {
+            pos_x: 12.345_678,
+            pos_y: -0.000_233_936_21,
+            pos_z: 1e-30,
+            yaw: -3.141_592_7,
+        }),
+        Request::Motion(MotionCommand::SwitchGait(MotionGait::from_raw(i32::MIN))),
+    ];
+    for request in requests {
+        let mut full = [0u8; 1024];
+        let n = request.encode(&T0, &mut full).unwrap();
+        let mut exact = vec![0u8; n];
+        assert_eq!(request.encode(&T0, &mut exact), Ok(n), "{request:?}");
+        assert_eq!(exact, full[..n], "{request:?}");
+        for len in 0..n {
+            let mut buf = vec![0u8; len];
+            assert_eq!(
+                request.encode(&T0, &mut buf),
+                Err(WriteError::BufferFull),
+                "{request:?} into {len} bytes"
+            );
+        }
+    }
+}
+
 #[test]
 fn non_finite_floats_are_refused_by_name() {
     use x30_panel::proto::xml::writer::WriteError;

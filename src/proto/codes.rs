@@ -64,6 +64,9 @@ macro_rules! coded_enum {
 
         impl $name {
             /// Decodes a raw code; one this protocol version does not define becomes `Unknown(raw)`.
+            // Called once per coded item of every message: one copy of the match per code
+            // is much smaller than one per item.
+            #[inline(never)]
             pub const fn from_raw(raw: i32) -> Self {
                 match raw {
                     $( $(#[cfg($cfg)])* $raw => Self::$variant, )+

@@ -253,19 +253,20 @@ macro_rules! item_set {
             fn from_values(values: Self::Values) -> Self {
                 let [$($field),*] = values;
                 Self {
-                    $( $field: $crate::proto::message::items::field(
-                        $field,
-                        // read_values has checked that required items are present.
-                        || item_set!(@default $($default)?),
-                    ), )*
+                    $( $field: item_set!(@field $field $($default)?), )*
                 }
             }
         }
     };
     (@required) => { true };
     (@required $default:expr) => { false };
-    (@default) => { $crate::proto::message::items::ItemValue::from_raw_bits(0) };
-    (@default $default:expr) => { $default };
+    // read_values has checked that required items are present: no branch for absence.
+    (@field $raw:ident) => {
+        $crate::proto::message::items::ItemValue::from_raw_bits($raw.unwrap_or(0))
+    };
+    (@field $raw:ident $default:expr) => {
+        $crate::proto::message::items::field($raw, || $default)
+    };
 }
 pub(crate) use item_set;
 

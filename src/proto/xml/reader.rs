@@ -501,9 +501,19 @@ fn name_len(bytes: &[u8]) -> usize {
     run(bytes, NAME_BYTE)
 }
 
-/// Position of `needle` in `haystack`.
+/// Position of `needle` (two or three bytes) in `haystack`: candidates are found by their
+/// first byte, which is rare in a declaration or comment.
 fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
-    haystack.windows(needle.len()).position(|w| w == needle)
+    let (&first, _) = needle.split_first()?;
+    let mut at = 0;
+    loop {
+        let rest = haystack.get(at..)?;
+        let candidate = at + rest.iter().position(|&b| b == first)?;
+        if haystack.get(candidate..)?.starts_with(needle) {
+            return Some(candidate);
+        }
+        at = candidate + 1;
+    }
 }
 
 /// Content of a simple element after its start tag: `Some(text)` when it holds only text

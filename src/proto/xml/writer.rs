@@ -167,6 +167,50 @@ impl Cursor<'_> {
             self.0 = tail;
         }
     }
+
+    /// [`Cursor::put`] for an element name: 4 to 16 bytes are copied as two overlapping
+    /// fixed-size pieces (a few loads and stores) rather than by a call to `memcpy`, which
+    /// costs more than such a short copy.
+    #[inline(always)]
+    fn put_name(&mut self, name: &[u8]) {
+        let rest = core::mem::take(&mut self.0);
+        let Some((head, tail)) = rest.split_at_mut_checked(name.len()) else {
+            return;
+        };
+        let n = name.len();
+        if (8..=16).contains(&n) {
+            copy_fixed::<8>(head, name, 0);
+            copy_fixed::<8>(head, name, n - 8);
+        } else if (4..8).contains(&n) {
+            copy_fixed::<4>(head, name, 0);
+            copy_fixed::<4>(head, name, n - 4);
+        } else {
+            head.copy_from_slice(name);
+        }
+        self.0 = tail;
+    }
+}
+
+/// [`number::write_f32`], kept out of line: number items call it from two places.
+#[inline(never)]
+fn format_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, number::NumberError> {
+    number::write_f32(value, out)
+}
+
+/// [`number::write_i64`], kept out of line: number items call it from two places.
+#[inline(never)]
+fn format_i64(value: i64, out: &mut [u8; I64_TEXT_MAX]) -> usize {
+    number::write_i64(value, out)
+}
+
+/// Copies the `N` bytes of `from` at `at` to the same place in `to`.
+#[inline(always)]
+fn copy_fixed<const N: usize>(to: &mut [u8], from: &[u8], at: usize) {
+    let from = from.get(at..).and_then(|f| f.first_chunk::<N>());
+    let to = to.get_mut(at..).and_then(|t| t.first_chunk_mut::<N>());
+    if let (Some(to), Some(from)) = (to, from) {
+        *to = *from;
+    }
 }
 
 /// The first `n` bytes of a formatted number.
@@ -245,27 +289,66 @@ impl<'a> DocumentWriter<'a> {
 
     /// Writes an integer item.
     pub fn int_item(&mut self, name: &str, value: i64) -> Result<(), WriteError> {
-        let mut text = [0; I64_TEXT_MAX];
-        let n = number::write_i64(value, &mut text);
-        self.item(name, text.get(..n).unwrap_or_default())
+        self.number_item(name, |text: &mut [u8; I64_TEXT_MAX]| {
+            Ok(format_i64(value, text))
+        })
     }
 
     /// Writes a float item.
     pub fn float_item(&mut self, name: &'static str, value: f32) -> Result<(), WriteError> {
-        let mut text = [0; F32_TEXT_MAX];
-        let n = number::write_f32(value, &mut text)
-            .map_err(|_| WriteError::NotFinite { item: name })?;
-        self.item(name, text.get(..n).unwrap_or_default())
+        self.number_item(name, |text: &mut [u8; F32_TEXT_MAX]| {
+            format_f32(value, text).map_err(|_| WriteError::NotFinite { item: name })
+        })
     }
 
-    /// Writes one item line, opening the `<Items>` block if needed.
-    fn item(&mut self, name: &str, value: &[u8]) -> Result<(), WriteError> {
+    /// Writes one item line whose value is a number that `format` writes into an array of
+    /// its longest text. Where the buffer has room for that, the number is formatted in
+    /// place, where it goes between the start tag and the end tag, so that it is never
+    /// copied; near the buffer's end it is formatted aside and copied only if it fits.
+    #[inline]
+    fn number_item<const N: usize>(
+        &mut self,
+        name: &str,
+        format: impl Fn(&mut [u8; N]) -> Result<usize, WriteError>,
+    ) -> Result<(), WriteError> {
+        self.open_items()?;
+        let name = name.as_bytes();
+        let out = self.w.buf.get_mut(self.w.len..).unwrap_or_default();
+        let start = ITEM_INDENT.len() + name.len() + 2;
+        let room = out.len() >= start + N + name.len() + 4;
+        let (head, rest) = out.split_at_mut(start.min(out.len()));
+        match rest.first_chunk_mut::<N>() {
+            Some(text) if room => {
+                let n = format(text)?;
+                let mut head = Cursor(head);
+                head.put(ITEM_INDENT);
+                head.put(b"<");
+                head.put_name(name);
+                head.put(b">");
+                let mut tail = Cursor(rest.get_mut(n..).unwrap_or_default());
+                tail.put(b"</");
+                tail.put_name(name);
+                tail.put(b">\n");
+                self.w.len += start + n + name.len() + 4;
+                Ok(())
+            }
+            _ => {
+                let mut text = [0; N];
+                let n = format(&mut text)?;
+                let text = text.get(..n).unwrap_or_default();
+                self.w.line(ITEM_INDENT, name, text, b"\n")
+            }
+        }
+    }
+
+    /// Opens the `<Items>` block if no block is open.
+    fn open_items(&mut self) -> Result<(), WriteError> {
         if !self.items_open {
             self.w.raw(CHILD_INDENT)?;
             self.w.raw(b"<Items>\n")?;
             self.items_open = true;
         }
-        self.w.line(ITEM_INDENT, name.as_bytes(), value, b"\n")
+        Ok(())
     }
 
     /// Closes the current `<Items>` block, so the next item starts another one (a 1003
