@@ -78,31 +78,39 @@ impl Timestamp {
 
     /// Parses `YYYY-MM-DD HH:MM:SS`.
     pub fn decode(text: &[u8]) -> Result<Self, BadTimestamp> {
-        let text: &[u8; TIME_TEXT_LEN] = text.try_into().map_err(|_| BadTimestamp)?;
-        let separators = [(4, b'-'), (7, b'-'), (10, b' '), (13, b':'), (16, b':')];
-        if separators
-            .iter()
-            .any(|&(at, sep)| text.get(at) != Some(&sep))
-        {
+        let &[
+            y0,
+            y1,
+            y2,
+            y3,
+            b'-',
+            m0,
+            m1,
+            b'-',
+            d0,
+            d1,
+            b' ',
+            h0,
+            h1,
+            b':',
+            i0,
+            i1,
+            b':',
+            s0,
+            s1,
+        ] = text
+        else {
             return Err(BadTimestamp);
-        }
-        let field = |at: usize, width: usize| -> Result<u16, BadTimestamp> {
-            text.iter()
-                .skip(at)
-                .take(width)
-                .try_fold(0u16, |acc, &b| match b {
-                    b'0'..=b'9' => Ok(acc * 10 + u16::from(b - b'0')),
-                    _ => Err(BadTimestamp),
-                })
         };
-        let narrow = |v: u16| u8::try_from(v).map_err(|_| BadTimestamp);
+        let digit = |c: u8| c.checked_sub(b'0').filter(|d| *d < 10).ok_or(BadTimestamp);
+        let two = |tens: u8, ones: u8| Ok::<_, BadTimestamp>(digit(tens)? * 10 + digit(ones)?);
         Ok(Self {
-            year: field(0, 4)?,
-            month: narrow(field(5, 2)?)?,
-            day: narrow(field(8, 2)?)?,
-            hour: narrow(field(11, 2)?)?,
-            minute: narrow(field(14, 2)?)?,
-            second: narrow(field(17, 2)?)?,
+            year: u16::from(two(y0, y1)?) * 100 + u16::from(two(y2, y3)?),
+            month: two(m0, m1)?,
+            day: two(d0, d1)?,
+            hour: two(h0, h1)?,
+            minute: two(i0, i1)?,
+            second: two(s0, s1)?,
         })
     }
 

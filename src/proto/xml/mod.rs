@@ -107,8 +107,9 @@ where
     let mut deferred_count = 0;
     let mut blocks = 0;
     loop {
-        // Header lines and unknown plain elements in the usual layout, without tokens.
-        if let Some(element) = tokens.simple_element().filter(|e| e.name != b"Items") {
+        // The usual layout's header lines, unknown plain elements, start of a block and end
+        // of the document, without tokens.
+        let token = if let Some(element) = tokens.simple_element().filter(|e| e.name != b"Items") {
             tokens.take(&element);
             match element.name {
                 b"Type" => message_type = Some(header_int(element.text, "Type")?),
@@ -117,9 +118,15 @@ where
                 _ => {}
             }
             continue;
-        }
-        let Some(token) = tokens.next_token().map_err(xml)? else {
-            break;
+        } else if tokens.plain_start(b"Items") {
+            Token::Start(b"Items")
+        } else if tokens.plain_end(b"PatrolDevice") {
+            continue;
+        } else {
+            match tokens.next_token().map_err(xml)? {
+                Some(token) => token,
+                None => break,
+            }
         };
         let (live, empty) = match token {
             Token::Start(b"Items") => (true, false),
@@ -297,6 +304,9 @@ impl<'a> Iterator for Items<'a> {
 
     fn next(&mut self) -> Option<Self::Item> {
         while !self.done {
+            if self.tokens.plain_end(b"Items") {
+                break;
+            }
             if let Some(element) = self.tokens.simple_element() {
                 self.tokens.take(&element);
                 return Some(Ok(Item {

@@ -160,7 +160,7 @@ impl<'a> Tokenizer<'a> {
     /// [`Tokenizer::take`] followed by the caller's use of the element is exactly what the
     /// general path does; anything else declines and leaves the general path to read (or
     /// refuse) it. Checked by the `read_paths` fuzz target and property tests.
-    #[inline]
+
     pub fn simple_element(&self) -> Option<SimpleElement<'a>> {
         let (at, tag) = self.simple_start()?;
         let name_len = run(tag, NAME_BYTE);
@@ -170,18 +170,67 @@ impl<'a> Tokenizer<'a> {
     /// [`Tokenizer::simple_element`] for an element expected to be called `name` (the next
     /// item of a table, in the usual layout): the name is compared rather than scanned, and
     /// anything else declines.
+
     #[inline]
     pub fn simple_element_named(&self, name: &[u8]) -> Option<SimpleElement<'a>> {
         let (at, tag) = self.simple_start()?;
         // `name>` at the start of the tag is exactly a name scan that stops at `>`, for
         // the names of the item tables (made of name bytes).
-        tag.strip_prefix(name)?;
+        if !has_prefix(tag, name) {
+            return None;
+        }
         self.simple_rest(at, tag, name.len())
+    }
+
+    /// The shortcut for a start tag written plainly, `<name>`, after whitespace, where
+    /// `name` is made of name bytes: consumes it and returns `true` exactly where
+    /// [`Tokenizer::next_token`] would have read whitespace text and `Start(name)` without
+    /// error; otherwise consumes nothing.
+    pub fn plain_start(&mut self, name: &'static [u8]) -> bool {
+        let Some((at, tag)) = self.simple_start() else {
+            return false;
+        };
+        if !has_prefix(tag, name) || tag.get(name.len()) != Some(&b'>') {
+            return false;
+        }
+        // simple_start checked that one more level is allowed.
+        if let Some(slot) = self.open.get_mut(self.depth) {
+            *slot = name;
+            self.depth += 1;
+            self.pos = at + name.len() + 2;
+            return true;
+        }
+        false
+    }
+
+    /// The shortcut for the end tag of the open element `name`, written plainly
+    /// (`</name>`), after whitespace: consumes it and returns `true` exactly where
+    /// [`Tokenizer::next_token`] would have read whitespace text and `End(name)`; otherwise
+    /// consumes nothing.
+    pub fn plain_end(&mut self, name: &[u8]) -> bool {
+        let open = self.depth.checked_sub(1).and_then(|d| self.open.get(d));
+        if !self.shortcut || self.place != Place::Root || open != Some(&name) {
+            return false;
+        }
+        let rest = self.rest();
+        let at = skip_spaces(rest);
+        let Some(tag) = rest.get(at..).and_then(|t| t.strip_prefix(b"</")) else {
+            return false;
+        };
+        if !has_prefix(tag, name) || tag.get(name.len()) != Some(&b'>') {
+            return false;
+        }
+        self.depth -= 1;
+        if self.depth == 0 && !self.fragment {
+            self.place = Place::Epilog;
+        }
+        self.pos += at + name.len() + 3;
+        true
     }
 
     /// Where a simple element may start: inside an element, with room for one more level,
     /// after whitespace; the offset of its `<` and what follows it.
-    #[inline]
+
     fn simple_start(&self) -> Option<(usize, &'a [u8])> {
         // Text is only allowed inside an element (or a fragment).
         let inside = self.place == Place::Root && (self.depth > 0 || self.fragment);
@@ -195,18 +244,17 @@ impl<'a> Tokenizer<'a> {
     }
 
     /// The rest of a simple element whose name (`name_len` bytes of `tag`) has been found.
-    #[inline]
+
     fn simple_rest(&self, at: usize, tag: &'a [u8], name_len: usize) -> Option<SimpleElement<'a>> {
         let (name, after) = tag.split_at_checked(name_len)?;
         let content = after.strip_prefix(b">").filter(|_| !name.is_empty())?;
         let (text, after) = content.split_at_checked(text_len(content)?)?;
-        let after = after
-            .strip_prefix(b"</")?
-            .strip_prefix(name)?
-            .strip_prefix(b">")?;
+        let close = after.strip_prefix(b"</")?;
+        if !has_prefix(close, name) || close.get(name_len) != Some(&b'>') {
+            return None;
+        }
         // at + '<' + name + '>' + text + '</' + name + '>'
         let end = at + 2 * name_len + text.len() + 5;
-        debug_assert_eq!(self.input.len() - after.len(), end);
         Some(SimpleElement {
             name,
             text: text.trim_ascii(),
@@ -459,7 +507,7 @@ fn run(bytes: &[u8], classes: u8) -> usize {
 
 /// Length of the whitespace at the start of `bytes`; runs of eight spaces (indentation) are
 /// skipped a word at a time.
-#[inline]
+
 fn skip_spaces(bytes: &[u8]) -> usize {
     let mut at = 0;
     loop {
@@ -475,7 +523,7 @@ fn skip_spaces(bytes: &[u8]) -> usize {
 
 /// Length of the plain text at the start of `bytes`: up to the first `<` or `&`, found a
 /// word at a time; `None` if there is neither.
-#[inline]
+
 fn text_len(bytes: &[u8]) -> Option<usize> {
     const ONES: u64 = u64::from_le_bytes([1; 8]);
     const HIGHS: u64 = ONES << 7;
@@ -494,6 +542,23 @@ fn text_len(bytes: &[u8]) -> Option<usize> {
     }
     let tail = bytes.get(at..)?;
     tail.iter().position(|&b| is(b, TEXT_END)).map(|i| at + i)
+}
+
+/// Whether `bytes` starts with `prefix`. Names of 4 to 16 bytes are compared as two
+/// overlapping fixed-size pieces: a call to `memcmp` costs more than such a short compare.
+
+fn has_prefix(bytes: &[u8], prefix: &[u8]) -> bool {
+    fn same<const N: usize>(a: &[u8], b: &[u8], at: usize) -> bool {
+        let a = a.get(at..).and_then(|a| a.first_chunk::<N>());
+        let b = b.get(at..).and_then(|b| b.first_chunk::<N>());
+        a.is_some() && a == b
+    }
+    let n = prefix.len();
+    match n {
+        8..=16 => same::<8>(bytes, prefix, 0) && same::<8>(bytes, prefix, n - 8),
+        4..8 => same::<4>(bytes, prefix, 0) && same::<4>(bytes, prefix, n - 4),
+        _ => bytes.starts_with(prefix),
+    }
 }
 
 /// Length of the XML name at the start of `bytes`.
