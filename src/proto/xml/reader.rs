@@ -160,7 +160,6 @@ impl<'a> Tokenizer<'a> {
     /// [`Tokenizer::take`] followed by the caller's use of the element is exactly what the
     /// general path does; anything else declines and leaves the general path to read (or
     /// refuse) it. Checked by the `read_paths` fuzz target and property tests.
-
     pub fn simple_element(&self) -> Option<SimpleElement<'a>> {
         let (at, tag) = self.simple_start()?;
         let name_len = run(tag, NAME_BYTE);
@@ -170,7 +169,6 @@ impl<'a> Tokenizer<'a> {
     /// [`Tokenizer::simple_element`] for an element expected to be called `name` (the next
     /// item of a table, in the usual layout): the name is compared rather than scanned, and
     /// anything else declines.
-
     #[inline]
     pub fn simple_element_named(&self, name: &[u8]) -> Option<SimpleElement<'a>> {
         let (at, tag) = self.simple_start()?;
@@ -230,7 +228,6 @@ impl<'a> Tokenizer<'a> {
 
     /// Where a simple element may start: inside an element, with room for one more level,
     /// after whitespace; the offset of its `<` and what follows it.
-
     fn simple_start(&self) -> Option<(usize, &'a [u8])> {
         // Text is only allowed inside an element (or a fragment).
         let inside = self.place == Place::Root && (self.depth > 0 || self.fragment);
@@ -244,7 +241,6 @@ impl<'a> Tokenizer<'a> {
     }
 
     /// The rest of a simple element whose name (`name_len` bytes of `tag`) has been found.
-
     fn simple_rest(&self, at: usize, tag: &'a [u8], name_len: usize) -> Option<SimpleElement<'a>> {
         let (name, after) = tag.split_at_checked(name_len)?;
         let content = after.strip_prefix(b">").filter(|_| !name.is_empty())?;
@@ -507,7 +503,6 @@ fn run(bytes: &[u8], classes: u8) -> usize {
 
 /// Length of the whitespace at the start of `bytes`; runs of eight spaces (indentation) are
 /// skipped a word at a time.
-
 fn skip_spaces(bytes: &[u8]) -> usize {
     let mut at = 0;
     loop {
@@ -523,7 +518,6 @@ fn skip_spaces(bytes: &[u8]) -> usize {
 
 /// Length of the plain text at the start of `bytes`: up to the first `<` or `&`, found a
 /// word at a time; `None` if there is neither.
-
 fn text_len(bytes: &[u8]) -> Option<usize> {
     const ONES: u64 = u64::from_le_bytes([1; 8]);
     const HIGHS: u64 = ONES << 7;
@@ -546,7 +540,6 @@ fn text_len(bytes: &[u8]) -> Option<usize> {
 
 /// Whether `bytes` starts with `prefix`. Names of 4 to 16 bytes are compared as two
 /// overlapping fixed-size pieces: a call to `memcmp` costs more than such a short compare.
-
 fn has_prefix(bytes: &[u8], prefix: &[u8]) -> bool {
     fn same<const N: usize>(a: &[u8], b: &[u8], at: usize) -> bool {
         let a = a.get(at..).and_then(|a| a.first_chunk::<N>());
