@@ -78,39 +78,37 @@ impl Timestamp {
 
     /// Parses `YYYY-MM-DD HH:MM:SS`.
     pub fn decode(text: &[u8]) -> Result<Self, BadTimestamp> {
-        let &[
-            y0,
-            y1,
-            y2,
-            y3,
-            b'-',
-            m0,
-            m1,
-            b'-',
-            d0,
-            d1,
-            b' ',
-            h0,
-            h1,
-            b':',
-            i0,
-            i1,
-            b':',
-            s0,
-            s1,
-        ] = text
-        else {
-            return Err(BadTimestamp);
-        };
-        let digit = |c: u8| c.checked_sub(b'0').filter(|d| *d < 10).ok_or(BadTimestamp);
-        let two = |tens: u8, ones: u8| Ok::<_, BadTimestamp>(digit(tens)? * 10 + digit(ones)?);
+        // `0` stands for a digit; every other byte must be there as written.
+        const LAYOUT: &[u8; TIME_TEXT_LEN] = b"0000-00-00 00:00:00";
+        let text: &[u8; TIME_TEXT_LEN] = text.try_into().map_err(|_| BadTimestamp)?;
+        let mut fields = [0u16; 6];
+        let mut field = 0;
+        for (&c, &expected) in text.iter().zip(LAYOUT) {
+            if expected != b'0' {
+                if c != expected {
+                    return Err(BadTimestamp);
+                }
+                field += 1;
+                continue;
+            }
+            let digit = c.wrapping_sub(b'0');
+            if digit > 9 {
+                return Err(BadTimestamp);
+            }
+            if let Some(value) = fields.get_mut(field) {
+                *value = *value * 10 + u16::from(digit);
+            }
+        }
+        let [year, month, day, hour, minute, second] = fields;
+        // Two digits always fit a u8.
+        let narrow = |v: u16| v as u8;
         Ok(Self {
-            year: u16::from(two(y0, y1)?) * 100 + u16::from(two(y2, y3)?),
-            month: two(m0, m1)?,
-            day: two(d0, d1)?,
-            hour: two(h0, h1)?,
-            minute: two(i0, i1)?,
-            second: two(s0, s1)?,
+            year,
+            month: narrow(month),
+            day: narrow(day),
+            hour: narrow(hour),
+            minute: narrow(minute),
+            second: narrow(second),
         })
     }
 

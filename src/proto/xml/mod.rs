@@ -304,15 +304,15 @@ impl<'a> Iterator for Items<'a> {
 
     fn next(&mut self) -> Option<Self::Item> {
         while !self.done {
-            if self.tokens.plain_end(b"Items") {
-                break;
-            }
             if let Some(element) = self.tokens.simple_element() {
                 self.tokens.take(&element);
                 return Some(Ok(Item {
                     name: element.name,
                     text: Some(element.text),
                 }));
+            }
+            if self.tokens.plain_end(b"Items") {
+                break;
             }
             let token = match self.tokens.next_token() {
                 Ok(Some(token)) => token,

@@ -1,5 +1,6 @@
 //! A bare Cortex-M binary that runs the protocol codec, so that its size minus the size of
-//! the same binary without the codec is what the codec costs in flash.
+//! the same binary without the codec is what the codec costs in flash. Both link the
+//! memory routines (`memcpy`, `memset`, `memcmp`) every firmware has.
 //!
 //! Feature `codec` links what the panel needs: framing, encoding every request and
 //! decoding every response. Feature `robot-side` adds the other direction (decoding every
@@ -48,12 +49,19 @@ fn exercise(input: &[u8], out: &mut [u8]) -> usize {
     total
 }
 
+/// The baseline: copies, fills and compares buffers of unknown length, as every firmware
+/// does, so that the routines behind them (`memcpy`, `memset`, `memcmp`, which the
+/// firmware links anyway) are not counted as the codec's.
 #[cfg(not(feature = "codec"))]
 fn exercise(input: &[u8], out: &mut [u8]) -> usize {
-    if let Some(b) = out.first_mut() {
-        *b = input.len() as u8;
+    let n = input.len().min(out.len());
+    if let (Some(to), Some(from)) = (out.get_mut(..n), input.get(..n)) {
+        to.copy_from_slice(from);
     }
-    input.len()
+    if let Some(rest) = out.get_mut(n..) {
+        rest.fill(0);
+    }
+    usize::from(input == black_box(&out[..]))
 }
 
 /// Entry point: the linker starts here, with `--gc-sections` keeping only what it reaches.
