@@ -11,7 +11,8 @@
 //! # Approximation, then exactness where it matters
 //!
 //! Both directions first compute with `Approx`, a 64-bit significand and binary exponent, and
-//! `10^e` from a 14-entry table of `5^±2^i` by binary powering: relative error below `2^-59`.
+//! `10^e` as one product of two table entries, `5^(16q)` and `5^r` (`e = 16q + r`): relative
+//! error below `2^-62`.
 //! Rounding to `f32` only changes at the *midpoints* between adjacent floats, and shortest
 //! decimal output only at the ends of a float's rounding interval and at ties between two
 //! candidates; when the approximation is too close to one of those for its error bound, the
@@ -162,9 +163,20 @@ fn decimal_len(n: u64) -> usize {
 /// Bit pattern of +infinity; as a [`Binary`] it decodes to 2^128, the value just above `f32::MAX`.
 const INF_BITS: u32 = 0x7f80_0000;
 
-/// 5^k for `k <= 27` (a few multiplications are cheaper than a table in flash).
+/// `5^k` for `k <= 15`, exactly: odd, so it is its table entry without the trailing zeros.
 fn pow5(k: u32) -> u64 {
-    (0..k).fold(1, |p: u64, _| p * 5)
+    let m = table(&POW5_FINE, k as usize);
+    m >> m.trailing_zeros()
+}
+
+/// `floor(k·log2(5))` for `-64 <= k < 64` (in 12.20 fixed point; checked for each such `k`).
+fn log2_pow5(k: i32) -> i32 {
+    (k * 2_434_718) >> 20
+}
+
+/// An entry of a table of significands (`2^63`, i.e. one, past its end).
+fn table(entries: &[u64], i: usize) -> u64 {
+    entries.get(i).copied().unwrap_or(1 << 63)
 }
 
 /// A non-negative `f32` (or the infinity pattern, as 2^128) as `m·2^e` with `m < 2^24`.
@@ -345,27 +357,37 @@ struct Approx {
     e: i32,
 }
 
-/// `5^(2^i)` for `i = 0..7` as `(m, e)` of an [`Approx`], rounded to nearest (exact up to
-/// `5^16`).
-const POW5_UP: [(u64, i32); 7] = [
-    (0xa000_0000_0000_0000, -61), // 5^1
-    (0xc800_0000_0000_0000, -59), // 5^2
-    (0x9c40_0000_0000_0000, -54), // 5^4
-    (0xbebc_2000_0000_0000, -45), // 5^8
-    (0x8e1b_c9bf_0400_0000, -26), // 5^16
-    (0x9dc5_ada8_2b70_b59e, 11),  // 5^32
-    (0xc278_1f49_ffcf_a6d5, 85),  // 5^64
+/// `5^(16q)` for `q = -4..=3` as the significand `m` of an [`Approx`] (`e` is
+/// `log2_pow5(16q) - 63`), rounded to nearest; exact for `q = 0, 1`.
+const POW5_COARSE: [u64; 8] = [
+    0xa87f_ea27_a539_e9a5, // 5^-64
+    0xbb12_7c53_b17e_c159, // 5^-48
+    0xcfb1_1ead_4539_94ba, // 5^-32
+    0xe695_94be_c44d_e15b, // 5^-16
+    0x8000_0000_0000_0000, // 5^0
+    0x8e1b_c9bf_0400_0000, // 5^16
+    0x9dc5_ada8_2b70_b59e, // 5^32
+    0xaf29_8d05_0e43_95d7, // 5^48
 ];
 
-/// `5^-(2^i)` for `i = 0..7` as `(m, e)` of an [`Approx`], rounded to nearest.
-const POW5_DOWN: [(u64, i32); 7] = [
-    (0xcccc_cccc_cccc_cccd, -66),  // 5^-1
-    (0xa3d7_0a3d_70a3_d70a, -68),  // 5^-2
-    (0xd1b7_1758_e219_652c, -73),  // 5^-4
-    (0xabcc_7711_8461_cefd, -82),  // 5^-8
-    (0xe695_94be_c44d_e15b, -101), // 5^-16
-    (0xcfb1_1ead_4539_94ba, -138), // 5^-32
-    (0xa87f_ea27_a539_e9a5, -212), // 5^-64
+/// `5^r` for `r = 0..16` as the significand of an [`Approx`], exactly (`5^15 < 2^35`).
+const POW5_FINE: [u64; 16] = [
+    0x8000_0000_0000_0000,
+    0xa000_0000_0000_0000,
+    0xc800_0000_0000_0000,
+    0xfa00_0000_0000_0000,
+    0x9c40_0000_0000_0000,
+    0xc350_0000_0000_0000,
+    0xf424_0000_0000_0000,
+    0x9896_8000_0000_0000,
+    0xbebc_2000_0000_0000,
+    0xee6b_2800_0000_0000,
+    0x9502_f900_0000_0000,
+    0xba43_b740_0000_0000,
+    0xe8d4_a510_0000_0000,
+    0x9184_e72a_0000_0000,
+    0xb5e6_20f4_8000_0000,
+    0xe35f_a931_a000_0000,
 ];
 
 impl Approx {
@@ -389,23 +411,20 @@ impl Approx {
         }
     }
 
-    /// `10^e` for `|e| < 128`: at most seven table entries and six truncating products (the
-    /// first is exact), so within `7·2^-64 + 6·2^-63 = 19·2^-64` (relative).
+    /// `10^e` for `-64 <= e < 64`, as `2^e·5^(16q)·5^r` with `0 <= r < 16`: one product of
+    /// two table entries, the first within `2^-64` (relative) and the second exact, truncated
+    /// (below `2^-63` more), so within `3·2^-64`; exact for `0 <= e < 28`.
     fn pow10(e: i32) -> Self {
-        let table = if e >= 0 { &POW5_UP } else { &POW5_DOWN };
-        // 2^e times the powers of five picked by the bits of |e|.
-        let mut power = Approx {
-            m: 1 << 63,
-            e: e - 63,
+        let (q, r) = (e >> 4, e & 15);
+        let coarse = Approx {
+            m: table(&POW5_COARSE, (q + 4) as usize),
+            e: log2_pow5(16 * q) - 63,
         };
-        let mut rest = e.unsigned_abs();
-        for &(m, e) in table {
-            if rest & 1 == 1 {
-                power = power.mul(Approx { m, e });
-            }
-            rest >>= 1;
-        }
-        power
+        let fine = Approx {
+            m: table(&POW5_FINE, r as usize),
+            e: log2_pow5(r) - 63 + e,
+        };
+        coarse.mul(fine)
     }
 
     /// The value times 2^32, truncated (for values below 2^31).
@@ -439,25 +458,24 @@ pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
     })
 }
 
-/// Significant digits kept; 10^19 - 1 is the largest all-nines number a `u64` holds.
-const MAX_DIGITS: u32 = 19;
+/// A mantissa at or above this takes no more digits: 19 significant digits are kept, and any
+/// 19 fit a `u64`.
+const MANTISSA_FULL: u64 = 1_000_000_000_000_000_000;
 
 /// Cap on an exponent's digits: far beyond any float, yet adding text-derived offsets to it
 /// cannot overflow (additions saturate in any case).
 const EXPONENT_CAP: i32 = 1 << 30;
 
 /// log2 of the distance to a midpoint, in units of the approximation's last bit, within which
-/// the rounding is settled exactly. The approximation of `n·10^e` is within `21·2^-64`
+/// the rounding is settled exactly. The approximation of `n·10^e` is within `5·2^-64`
 /// (relative: [`Approx::pow10`] and one more product), plus `10^-18` for dropped digits; with
-/// the significand below 2^64 that is under 40 units, and 2^7 leaves a safety factor of three.
+/// the significand below 2^64 that is under 24 units, and 2^7 leaves a safety factor of five.
 const MIDPOINT_MARGIN_BITS: u32 = 7;
 
 /// A decimal `mantissa·10^exponent`, plus `sticky` if non-zero digits were dropped.
 struct Decimal {
     negative: bool,
     mantissa: u64,
-    /// Number of decimal digits of `mantissa` (it has no leading zeros).
-    digits: u32,
     exponent: i32,
     sticky: bool,
 }
@@ -469,7 +487,6 @@ impl Decimal {
         let mut decimal = Decimal {
             negative,
             mantissa: 0,
-            digits: 0,
             exponent: 0,
             sticky: false,
         };
@@ -490,15 +507,9 @@ impl Decimal {
                 _ => return Err(NumberError::Invalid),
             };
             any_digit = true;
-            if decimal.mantissa == 0 && d == 0 {
-                // A leading zero is not significant; after the point it still moves the scale.
-                if after_point {
-                    decimal.exponent = decimal.exponent.saturating_sub(1);
-                }
-            } else if decimal.digits < MAX_DIGITS {
-                // mantissa < 10^18 here, so this stays below 10^19 < 2^64.
+            // Leading zeros are taken too, and leave the mantissa zero.
+            if decimal.mantissa < MANTISSA_FULL {
                 decimal.mantissa = decimal.mantissa * 10 + u64::from(d);
-                decimal.digits += 1;
                 if after_point {
                     decimal.exponent = decimal.exponent.saturating_sub(1);
                 }
@@ -521,14 +532,13 @@ impl Decimal {
         if self.mantissa == 0 {
             return Ok(0.0);
         }
-        // The value lies in [10^(digits-1+exponent), 10^(digits+exponent)).
-        let digits = self.digits as i32;
-        if self.exponent > 39 - digits {
+        // The value lies in [10^exponent, 10^(19+exponent)].
+        if self.exponent > 38 {
             // At least 10^39 > f32::MAX.
             return Err(NumberError::OutOfRange);
         }
-        if self.exponent < -45 - digits {
-            // Below 10^-46, less than half the smallest subnormal 2^-149.
+        if self.exponent < -64 {
+            // At most 10^-46, less than half the smallest subnormal 2^-149.
             return Ok(0.0);
         }
         // Now -64 <= exponent <= 38, the range `compare` is sized for.
@@ -627,8 +637,9 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
 }
 
 /// How close (in 32.32 units: `2^-16`) an approximate position may come to an integer or a tie
-/// before it is checked exactly. `y` is within `19·2^-64 + 2^-63` (relative) of the truth, i.e.
-/// below 2^62 by less than 7 units, and the interval ends within 2^5 units (after `×10`).
+/// before it is checked exactly. `y` is within `5·2^-64` (relative: [`Approx::pow10`] and one
+/// product) of the truth plus one unit of truncation, i.e. below 2^62 by less than 3 units, and
+/// the interval ends within 2^6 units (after `×10`).
 const TIE_MARGIN: u64 = 1 << 16;
 
 /// The integers `low..=high` (in units of `10^-scale`) that read back as the float `bits`, and
@@ -638,7 +649,7 @@ struct Window {
     x: Binary,
     scale: i32,
     y: u64,
-    /// Whether `y` and the interval ends are exact (else within 2^5 units).
+    /// Whether `y` and the interval ends are exact (else within 2^6 units).
     exact: bool,
     low: u32,
     high: u32,
@@ -726,18 +737,20 @@ impl Window {
     fn pick(&self) -> (u32, i32) {
         // The largest power of ten with a multiple inside the window: the window holds a
         // multiple of 10^k exactly when high/10^k > (low-1)/10^k. Dividing by the constant
-        // 10 compiles to a multiplication; a division by a variable power would not.
+        // 10 compiles to a multiplication; a division by a variable power would not, so y's
+        // quotient is divided along.
         let (mut below, mut high) = (self.low.saturating_sub(1), self.high);
+        let mut quotient = (self.y >> 32) as u32;
         let mut step = 1u32;
         let mut zeros = 0;
         while high / 10 > below / 10 {
             high /= 10;
             below /= 10;
+            quotient /= 10;
             step = step.saturating_mul(10);
             zeros += 1;
         }
         // The nearest multiple of `step` is one of the two around y.
-        let quotient = ((self.y >> 32) as u32).checked_div(step).unwrap_or(0);
         let down = quotient * step;
         let up = down.saturating_add(step);
         let inside = |c: u32| (self.low..=self.high).contains(&c);
