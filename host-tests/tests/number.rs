@@ -369,6 +369,52 @@ fn more_than_19_digits_are_close() {
 }
 
 #[test]
+fn power_table_seams_match_std() {
+    // 10^e is 5^(16q)·5^r·2^e from two tables: every e the parser reaches (-64..=38), with
+    // mantissas of 1, 9 and 19 digits, and the floats written with those scales.
+    for e in -64..=38 {
+        for mantissa in [
+            "1",
+            "7",
+            "123456789",
+            "9999999999999999999",
+            "1000000000000000001",
+        ] {
+            check_parse(&format!("{mantissa}e{e}"));
+            check_parse(&format!("-{mantissa}E{e}"));
+        }
+    }
+    for e in -45..=38 {
+        for x in [format!("1.5e{e}"), format!("9.87654321e{e}")] {
+            let x: f32 = x.parse().unwrap();
+            if x.is_finite() {
+                check_float(x);
+            }
+        }
+    }
+}
+
+#[test]
+fn nineteen_digit_mantissa_edge() {
+    // Digits are taken while the mantissa is below 10^18: exactly 19 significant ones, leading
+    // zeros not counted; later ones only round.
+    for text in [
+        "1000000000000000000",
+        "9999999999999999999",
+        "99999999999999999999",
+        "0.00000000009999999999999999999",
+        "0.000000000099999999999999999999",
+        "1999999999999999999.5",
+        "16777216.9999999999",
+        "16777216.99999999999",
+        "16777217.00000000000",
+        "000000000000000000000016777217.0000000000000001",
+    ] {
+        check_parse(text);
+    }
+}
+
+#[test]
 fn parse_rejections() {
     assert_eq!(parse_f32(b""), Err(NumberError::Empty));
     for bad in [
