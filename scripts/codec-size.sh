@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Flash and static RAM the protocol codec takes on thumbv7em-none-eabihf (release, opt-level
 # "s", LTO): the size of a bare binary that encodes and decodes every message, minus the
-# same binary without the codec.
+# same binary without the codec. Both binaries link memcpy, memset and memcmp, which every
+# firmware has, so those are not counted as the codec's.
 set -euo pipefail
 cd "$(dirname "$0")/../tools/codec-size"
 export RUSTFLAGS="-C link-arg=-e_start -C link-arg=--gc-sections"

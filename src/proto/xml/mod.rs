@@ -3,6 +3,11 @@
 //! Every body is one `<PatrolDevice>` element holding `Type`, `Command`, `Time` and one or
 //! more `Items` blocks, in any order. [`read_document`] walks it once and hands each
 //! `Items` block to the caller together with the `Type` it belongs to.
+//!
+//! Lines in the usual layout (`<Name>text</Name>`, `<Items>`, `</Items>`) are read by the
+//! tokenizer's shortcuts ([`Tokenizer::simple_element`] and its siblings) without making
+//! tokens; anything else goes token by token. The shortcuts yield exactly what the tokens
+//! would, which [`read_document_general`] (every shortcut off) lets tests check.
 
 pub mod number;
 pub mod reader;
