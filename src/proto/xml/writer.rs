@@ -316,29 +316,47 @@ impl<'a> DocumentWriter<'a> {
         let out = self.w.buf.get_mut(self.w.len..).unwrap_or_default();
         let start = ITEM_INDENT.len() + name.len() + 2;
         let room = out.len() >= start + N + name.len() + 4;
-        let (head, rest) = out.split_at_mut(start.min(out.len()));
-        match rest.first_chunk_mut::<N>() {
+        match out
+            .get_mut(start..)
+            .and_then(|rest| rest.first_chunk_mut::<N>())
+        {
             Some(text) if room => {
                 let n = format(text)?;
-                let mut head = Cursor(head);
-                head.put(ITEM_INDENT);
-                head.put(b"<");
-                head.put_name(name);
-                head.put(b">");
-                let mut tail = Cursor(rest.get_mut(n..).unwrap_or_default());
-                tail.put(b"</");
-                tail.put_name(name);
-                tail.put(b">\n");
-                self.w.len += start + n + name.len() + 4;
+                self.around_number(name, n);
                 Ok(())
             }
             _ => {
                 let mut text = [0; N];
                 let n = format(&mut text)?;
-                let text = text.get(..n).unwrap_or_default();
-                self.w.line(ITEM_INDENT, name, text, b"\n")
+                self.number_line(name, text.get(..n).unwrap_or_default())
             }
         }
+    }
+
+    /// Writes the tags around a number of `n` bytes already formatted in place, where
+    /// [`DocumentWriter::number_item`] checked there is room. The same for every kind of
+    /// number, so kept out of line.
+    #[inline(never)]
+    fn around_number(&mut self, name: &[u8], n: usize) {
+        let start = ITEM_INDENT.len() + name.len() + 2;
+        let out = self.w.buf.get_mut(self.w.len..).unwrap_or_default();
+        let (head, rest) = out.split_at_mut(start.min(out.len()));
+        let mut head = Cursor(head);
+        head.put(ITEM_INDENT);
+        head.put(b"<");
+        head.put_name(name);
+        head.put(b">");
+        let mut tail = Cursor(rest.get_mut(n..).unwrap_or_default());
+        tail.put(b"</");
+        tail.put_name(name);
+        tail.put(b">\n");
+        self.w.len += start + n + name.len() + 4;
+    }
+
+    /// Writes an item line whose number was formatted aside, near the buffer's end.
+    #[inline(never)]
+    fn number_line(&mut self, name: &[u8], text: &[u8]) -> Result<(), WriteError> {
+        self.w.line(ITEM_INDENT, name, text, b"\n")
     }
 
     /// Opens the `<Items>` block if no block is open.
