@@ -105,9 +105,7 @@ where
         Some(Token::Start(b"PatrolDevice")) => {}
         _ => return Err(StructureError::NotPatrolDevice.into()),
     }
-    let mut message_type = None;
-    let mut command = None;
-    let mut time = Timestamp::ZERO;
+    let mut header = Header::default();
     let mut deferred = [const { 0..0 }; MAX_ITEMS_BLOCKS];
     let mut deferred_count = 0;
     let mut blocks = 0;
@@ -116,11 +114,8 @@ where
         // of the document, without tokens.
         let token = if let Some(element) = tokens.simple_element().filter(|e| e.name != b"Items") {
             tokens.take(&element);
-            match element.name {
-                b"Type" => message_type = Some(header_int(element.text, "Type")?),
-                b"Command" => command = Some(header_int(element.text, "Command")?),
-                b"Time" => time = header_time(element.text)?,
-                _ => {}
+            if let Some(name) = header_name(element.name) {
+                header.set(name, element.text)?;
             }
             continue;
         } else if tokens.plain_start(b"Items") {
@@ -136,21 +131,13 @@ where
         let (live, empty) = match token {
             Token::Start(b"Items") => (true, false),
             Token::Empty(b"Items") => (false, true),
-            Token::Start(b"Type") => {
-                message_type = Some(header_int(header_text(&mut tokens, "Type")?, "Type")?);
-                continue;
-            }
-            Token::Start(b"Command") => {
-                let text = header_text(&mut tokens, "Command")?;
-                command = Some(header_int(text, "Command")?);
-                continue;
-            }
-            Token::Start(b"Time") => {
-                time = header_time(header_text(&mut tokens, "Time")?)?;
-                continue;
-            }
-            Token::Start(_) => {
-                skip_element(&mut tokens).map_err(xml)?;
+            Token::Start(tag) => {
+                match header_name(tag) {
+                    Some(name) => header.set(name, header_text(&mut tokens, name)?)?,
+                    None => {
+                        skip_element(&mut tokens).map_err(xml)?;
+                    }
+                }
                 continue;
             }
             Token::End(_) | Token::Empty(_) | Token::Text(_) => continue,
@@ -159,12 +146,12 @@ where
         if blocks > MAX_ITEMS_BLOCKS {
             return Err(StructureError::TooManyItemsBlocks.into());
         }
-        match (message_type, command) {
+        match (header.message_type, header.command) {
             (Some(message_type), Some(command)) if deferred_count == 0 => {
                 let envelope = Envelope {
                     message_type,
                     command,
-                    time,
+                    time: header.time,
                 };
                 if empty {
                     on_items(&envelope, &mut Items::fragment(&[], tokens.has_shortcut()))?;
@@ -189,9 +176,13 @@ where
         }
     }
     let envelope = Envelope {
-        message_type: message_type.ok_or(StructureError::MissingElement("Type"))?,
-        command: command.ok_or(StructureError::MissingElement("Command"))?,
-        time,
+        message_type: header
+            .message_type
+            .ok_or(StructureError::MissingElement("Type"))?,
+        command: header
+            .command
+            .ok_or(StructureError::MissingElement("Command"))?,
+        time: header.time,
     };
     for range in deferred.iter().take(deferred_count) {
         let content = input.get(range.clone()).unwrap_or_default();
@@ -225,12 +216,32 @@ fn header_text<'a>(
         .ok_or(StructureError::NotText(name))
 }
 
-fn header_int(text: &[u8], name: &'static str) -> Result<i32, StructureError> {
-    number::parse_int(text).map_err(|e| StructureError::BadNumber(name, e))
+/// The header elements read so far.
+#[derive(Default)]
+struct Header {
+    message_type: Option<i32>,
+    command: Option<i32>,
+    time: Timestamp,
 }
 
-fn header_time(text: &[u8]) -> Result<Timestamp, StructureError> {
-    Timestamp::decode(text).map_err(|_| StructureError::BadTime)
+impl Header {
+    /// Takes the text of the header element `name` (one [`header_name`] returned).
+    fn set(&mut self, name: &'static str, text: &[u8]) -> Result<(), StructureError> {
+        let int = |text| number::parse_int(text).map_err(|e| StructureError::BadNumber(name, e));
+        match name {
+            "Type" => self.message_type = Some(int(text)?),
+            "Command" => self.command = Some(int(text)?),
+            _ => self.time = Timestamp::decode(text).map_err(|_| StructureError::BadTime)?,
+        }
+        Ok(())
+    }
+}
+
+/// The name of a header element (`Type`, `Command`, `Time`), or `None` for another element.
+fn header_name(tag: &[u8]) -> Option<&'static str> {
+    ["Type", "Command", "Time"]
+        .into_iter()
+        .find(|name| name.as_bytes() == tag)
 }
 
 /// One item: its element name and, if it holds only text, that text with surrounding
