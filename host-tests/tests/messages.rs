@@ -179,6 +179,40 @@ fn status_1002_from_a_real_robot_with_extra_items() {
     assert_response_round_trip(&decoded);
 }
 
+/// Items are found by name whatever their order and the ASCII case of their names: a
+/// status answer with its items reversed and every name in upper or lower case decodes to
+/// the same message (so the reader's quick test for unknown names never drops a known one).
+#[test]
+fn items_are_found_in_any_order_and_any_case() {
+    let mut buf = [0u8; 4096];
+    let status = response(STATUS_WITH_EVERY_ITEM);
+    let n = status.message.encode(&status.time, &mut buf).unwrap();
+    let text = std::str::from_utf8(&buf[..n]).unwrap();
+    let (head, rest) = text.split_once("<Items>\n").unwrap();
+    let (items, tail) = rest.split_once("  </Items>").unwrap();
+    for fold in [str::to_uppercase, str::to_lowercase] {
+        let lines: Vec<String> = items
+            .lines()
+            .rev()
+            .map(|line| {
+                let (name, value) = line.trim().trim_start_matches('<').split_once('>').unwrap();
+                let (value, _) = value.split_once("</").unwrap();
+                let name = fold(name);
+                format!("<{name}>{value}</{name}>\n")
+            })
+            .collect();
+        let shuffled = format!("{head}<Items>\n{}  </Items>{tail}", lines.concat());
+        assert_eq!(response(&shuffled), status, "{shuffled}");
+    }
+}
+
+const STATUS_WITH_EVERY_ITEM: &str = "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2024-06-30 23:59:59</Time><Items>\
+    <MotionState>4</MotionState><PosX>12.3456783</PosX><PosY>-0.00023393621</PosY><PosZ>0.0312</PosZ>\
+    <Roll>0.0012</Roll><Pitch>-0.0034</Pitch><Yaw>3.14159274</Yaw><Speed>0.5</Speed><CurOdom>1.25</CurOdom>\
+    <SumOdom>1234.5</SumOdom><Res>0.05</Res><X0>-10.5</X0><Y0>-20.25</Y0><H>800</H><Electricity>87</Electricity>\
+    <Location>1</Location><GaitState>8</GaitState><MotorState>1</MotorState><ChargeState>1</ChargeState>\
+    <ControlMode>1</ControlMode><OnDockState>1</OnDockState></Items></PatrolDevice>";
+
 #[test]
 fn status_all_zero_is_unavailable() {
     let items: String = [

@@ -3,7 +3,8 @@
 
 use proptest::prelude::*;
 use x30_panel::proto::xml::number::{
-    F32_TEXT_MAX, I64_TEXT_MAX, NumberError, parse_f32, parse_i64, parse_int, write_f32, write_i64,
+    F32_TEXT_MAX, I64_TEXT_MAX, NumberError, parse_f32, parse_i64, parse_int, parse_int_prefix,
+    write_f32, write_i64,
 };
 
 /// Our text for a finite float.
@@ -536,6 +537,25 @@ proptest! {
     fn integer_parse_matches_std(text in "[+-]?[0-9]{1,22}") {
         let expected = text.parse::<i64>().map_err(|_| NumberError::OutOfRange);
         prop_assert_eq!(parse_i64(text.as_bytes()), expected);
+    }
+
+    /// What `parse_int_prefix` reads at the start of a text is what `parse_int` reads from
+    /// that part alone, and it stops exactly where the integer's text ends.
+    #[test]
+    fn integer_prefix_is_parse_of_the_prefix(text in "[+-]?[0-9]{0,12}[<&a .e+-]?[0-9<]{0,3}") {
+        let bytes = text.as_bytes();
+        match parse_int_prefix::<i32>(bytes) {
+            Some((value, n)) => {
+                prop_assert_eq!(parse_int::<i32>(&bytes[..n]), Ok(value));
+                prop_assert!(!bytes.get(n).is_some_and(u8::is_ascii_digit));
+            }
+            None => {
+                let digits = text.trim_start_matches(['+', '-']);
+                let end = text.len() - digits.len()
+                    + digits.bytes().take_while(u8::is_ascii_digit).count();
+                prop_assert!(parse_int::<i32>(&bytes[..end]).is_err(), "{text:?}");
+            }
+        }
     }
 }
 

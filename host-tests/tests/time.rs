@@ -40,6 +40,52 @@ fn rejects_other_shapes() {
     }
 }
 
+/// Each byte is checked at its own place: changing any one byte of a valid time to any
+/// other value is refused unless it puts a digit where a digit belongs, and then exactly
+/// that field changes.
+#[test]
+fn checks_every_byte_at_its_place() {
+    let good = *b"9876-54-32 10:98:76";
+    let fields = |text: &[u8]| {
+        let s = std::str::from_utf8(text).unwrap();
+        [
+            &s[0..4],
+            &s[5..7],
+            &s[8..10],
+            &s[11..13],
+            &s[14..16],
+            &s[17..19],
+        ]
+        .map(|f| f.parse::<u16>().unwrap())
+    };
+    let read = |t: Timestamp| {
+        [
+            t.year,
+            t.month.into(),
+            t.day.into(),
+            t.hour.into(),
+            t.minute.into(),
+            t.second.into(),
+        ]
+    };
+    assert_eq!(read(Timestamp::decode(&good).unwrap()), fields(&good));
+    for at in 0..TIME_TEXT_LEN {
+        for byte in 0..=255u8 {
+            let mut text = good;
+            text[at] = byte;
+            let separator = [4, 7, 10, 13, 16].contains(&at);
+            let acceptable = byte == good[at] || (!separator && byte.is_ascii_digit());
+            match Timestamp::decode(&text) {
+                Ok(t) => {
+                    assert!(acceptable, "accepted {:?}", String::from_utf8_lossy(&text));
+                    assert_eq!(read(t), fields(&text));
+                }
+                Err(_) => assert!(!acceptable, "refused {:?}", String::from_utf8_lossy(&text)),
+            }
+        }
+    }
+}
+
 #[test]
 fn counts_on_across_days_months_and_leap_years() {
     let t = Timestamp {

@@ -120,12 +120,54 @@ pub trait ItemSet: Sized {
         write_values(doc, Self::SPEC, self.to_values().as_ref())
     }
 
+    /// Which names can be in [`ItemSet::SPEC`], for passing over unknown items quickly.
+    const NAMES: NameFilter = NameFilter::of(Self::SPEC);
+
     /// Reads the items of one block; unknown items are skipped, a missing required one is
     /// an error naming it.
     fn read_items(items: &mut Items<'_>) -> Result<Self, DecodeError> {
         let mut values = Self::Values::default();
-        read_values(items, Self::SPEC, values.as_mut())?;
+        read_values(items, Self::SPEC, Self::NAMES, values.as_mut())?;
         Ok(Self::from_values(values))
+    }
+}
+
+/// A quick test that a name is none of a table's: a Bloom filter over the names' length,
+/// first and last letter, two bits per name. An unknown item (a real robot sends several in
+/// each status answer) mostly misses one of its bits, and then needs no search through the
+/// table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NameFilter(u128);
+
+impl NameFilter {
+    /// The bits of every name in `spec`.
+    pub const fn of(spec: &[ItemSpec]) -> Self {
+        let mut bits = 0;
+        let mut rest = spec;
+        while let [item, tail @ ..] = rest {
+            bits |= Self::bits(item.name.as_bytes());
+            rest = tail;
+        }
+        Self(bits)
+    }
+
+    /// The two bits of `name`; names equal but for ASCII case share them.
+    const fn bits(name: &[u8]) -> u128 {
+        let (first, last) = match name {
+            [first, .., last] => (*first, *last),
+            [only] => (*only, *only),
+            [] => (0, 0),
+        };
+        // Fibonacci hashing: the top bits of the product mix every input bit.
+        let key = (name.len() as u32) << 16 | ((first | 0x20) as u32) << 8 | (last | 0x20) as u32;
+        let hash = key.wrapping_mul(0x9e37_79b9);
+        1 << (hash >> 25) | 1 << ((hash >> 18) & 127)
+    }
+
+    /// Whether `name` (compared without regard to ASCII case) may be one of the table's.
+    fn may_hold(self, name: &[u8]) -> bool {
+        let bits = Self::bits(name);
+        self.0 & bits == bits
     }
 }
 
@@ -154,6 +196,7 @@ fn write_values(
 fn read_values(
     items: &mut Items<'_>,
     spec: &[ItemSpec],
+    names: NameFilter,
     values: &mut [Raw],
 ) -> Result<(), DecodeError> {
     // Documents list items in the table's order, so the search starts after the item found
@@ -161,19 +204,36 @@ fn read_values(
     // table, so where the search starts cannot change what it finds.
     let mut next = 0;
     loop {
-        // The usual layout: the item the table lists next, written plainly.
-        let expected = spec.get(next).zip(values.get_mut(next));
-        if let Some((spec, value)) = expected
-            && let Some(text) = items.next_named(spec.name)
-        {
-            *value = Some(parse_text(Some(text), spec)?);
-            next += 1;
-            continue;
+        // The usual layout: the item the table lists next, written plainly. An integer's
+        // text is short, so it is read in the pass that finds its end; a float's text is
+        // found first (a word at a time) and parsed after, which keeps the work that the
+        // next line has to wait for short.
+        if let Some((spec, value)) = spec.get(next).zip(values.get_mut(next)) {
+            let integer = match spec.kind {
+                Kind::Float => None,
+                Kind::Int => items.next_number(spec.name, number::parse_int_prefix::<i32>),
+                Kind::Byte => items
+                    .next_number(spec.name, number::parse_int_prefix::<u8>)
+                    .map(i32::from),
+            };
+            if let Some(integer) = integer {
+                *value = Some(integer as u32);
+                next += 1;
+                continue;
+            }
+            if let Some(text) = items.next_named(spec.name) {
+                *value = Some(parse_text(Some(text), spec)?);
+                next += 1;
+                continue;
+            }
         }
         let Some(item) = items.next() else {
             break;
         };
         let item = item?;
+        if !names.may_hold(item.name) {
+            continue;
+        }
         let matches = |s: &ItemSpec| item.name.eq_ignore_ascii_case(s.name.as_bytes());
         let (earlier, later) = spec.split_at_checked(next).unwrap_or_default();
         let index = match later.iter().position(matches) {

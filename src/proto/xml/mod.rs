@@ -114,8 +114,8 @@ where
         // of the document, without tokens.
         let token = if let Some(element) = tokens.simple_element().filter(|e| e.name != b"Items") {
             tokens.take(&element);
-            if let Some(name) = header_name(element.name) {
-                header.set(name, element.text)?;
+            if let Some(header_element) = HeaderElement::named(element.name) {
+                header.set(header_element, element.text)?;
             }
             continue;
         } else if tokens.plain_start(b"Items") {
@@ -132,8 +132,10 @@ where
             Token::Start(b"Items") => (true, false),
             Token::Empty(b"Items") => (false, true),
             Token::Start(tag) => {
-                match header_name(tag) {
-                    Some(name) => header.set(name, header_text(&mut tokens, name)?)?,
+                match HeaderElement::named(tag) {
+                    Some(element) => {
+                        header.set(element, header_text(&mut tokens, element.name())?)?
+                    }
                     None => {
                         skip_element(&mut tokens).map_err(xml)?;
                     }
@@ -225,23 +227,49 @@ struct Header {
 }
 
 impl Header {
-    /// Takes the text of the header element `name` (one [`header_name`] returned).
-    fn set(&mut self, name: &'static str, text: &[u8]) -> Result<(), StructureError> {
-        let int = |text| number::parse_int(text).map_err(|e| StructureError::BadNumber(name, e));
-        match name {
-            "Type" => self.message_type = Some(int(text)?),
-            "Command" => self.command = Some(int(text)?),
-            _ => self.time = Timestamp::decode(text).map_err(|_| StructureError::BadTime)?,
+    /// Takes the text of the header element `element`.
+    fn set(&mut self, element: HeaderElement, text: &[u8]) -> Result<(), StructureError> {
+        let int = |text| {
+            number::parse_int(text).map_err(|e| StructureError::BadNumber(element.name(), e))
+        };
+        match element {
+            HeaderElement::Type => self.message_type = Some(int(text)?),
+            HeaderElement::Command => self.command = Some(int(text)?),
+            HeaderElement::Time => {
+                self.time = Timestamp::decode(text).map_err(|_| StructureError::BadTime)?
+            }
         }
         Ok(())
     }
 }
 
-/// The name of a header element (`Type`, `Command`, `Time`), or `None` for another element.
-fn header_name(tag: &[u8]) -> Option<&'static str> {
-    ["Type", "Command", "Time"]
-        .into_iter()
-        .find(|name| name.as_bytes() == tag)
+/// An element of the header.
+#[derive(Clone, Copy)]
+enum HeaderElement {
+    Type,
+    Command,
+    Time,
+}
+
+impl HeaderElement {
+    /// The header element called `tag`, or `None` for another element.
+    fn named(tag: &[u8]) -> Option<Self> {
+        match tag {
+            b"Type" => Some(Self::Type),
+            b"Command" => Some(Self::Command),
+            b"Time" => Some(Self::Time),
+            _ => None,
+        }
+    }
+
+    /// Its element name.
+    fn name(self) -> &'static str {
+        match self {
+            Self::Type => "Type",
+            Self::Command => "Command",
+            Self::Time => "Time",
+        }
+    }
 }
 
 /// One item: its element name and, if it holds only text, that text with surrounding
@@ -300,6 +328,21 @@ impl<'a> Items<'a> {
 }
 
 impl<'a> Items<'a> {
+    /// The next item's value if it is `name`, written plainly, with a number as text that
+    /// `read` accepts (see [`Tokenizer::simple_number`]); consumes nothing and returns `None`
+    /// otherwise.
+    #[inline]
+    pub fn next_number<T>(
+        &mut self,
+        name: &str,
+        read: impl FnOnce(&[u8]) -> Option<(T, usize)>,
+    ) -> Option<T> {
+        if self.done {
+            return None;
+        }
+        self.tokens.simple_number(name.as_bytes(), read)
+    }
+
     /// The next item's trimmed text if it is `name`, written plainly (`<name>text</name>`):
     /// the usual layout, where items follow their table's order. Consumes nothing and
     /// returns `None` otherwise; [`Items::next`] then reads whatever is there. Returns

@@ -72,32 +72,53 @@ pub const I64_TEXT_MAX: usize = 20;
 
 /// Parses an optionally signed decimal integer (no exponent, no '.', leading '+' allowed) as i64; overflow -> OutOfRange.
 pub fn parse_i64(text: &[u8]) -> Result<i64, NumberError> {
-    let (negative, digits) = split_sign(text)?;
-    if digits.is_empty() {
-        return Err(NumberError::Invalid);
+    let (value, used) = scan_i64(text);
+    match value {
+        Err(NumberError::Empty) => Err(NumberError::Empty),
+        // Anything after the digits makes the text Invalid, even if they overflowed.
+        _ if used != text.len() => Err(NumberError::Invalid),
+        value => value,
+    }
+}
+
+/// The integer at the start of `text` and the length of its text, if it is one that
+/// [`parse_int`] accepts: `parse_int(&text[..n])` gives the same value. For reading a
+/// number and finding where its text ends in one pass.
+pub fn parse_int_prefix<T: TryFrom<i64>>(text: &[u8]) -> Option<(T, usize)> {
+    let (value, used) = scan_i64(text);
+    Some((T::try_from(value.ok()?).ok()?, used))
+}
+
+/// The value of the sign and digits at the start of `text`, and their length; reading
+/// stops at the first byte that cannot continue them.
+fn scan_i64(text: &[u8]) -> (Result<i64, NumberError>, usize) {
+    let (negative, body) = match split_sign(text) {
+        Ok(split) => split,
+        Err(e) => return (Err(e), 0),
+    };
+    let digits = body.iter().take_while(|c| c.is_ascii_digit()).count();
+    let used = text.len() - body.len() + digits;
+    if digits == 0 {
+        return (Err(NumberError::Invalid), used);
     }
     // Accumulate towards the negative side: i64::MIN has no positive counterpart.
     let mut value: i64 = 0;
     let mut overflow = false;
-    for &c in digits {
-        let d = digit(c).ok_or(NumberError::Invalid)?;
+    for &c in body.get(..digits).unwrap_or_default() {
         match value
             .checked_mul(10)
-            .and_then(|v| v.checked_sub(i64::from(d)))
+            .and_then(|v| v.checked_sub(i64::from(c - b'0')))
         {
             Some(v) => value = v,
-            // Keep scanning: a malformed tail is reported as Invalid, not OutOfRange.
             None => overflow = true,
         }
     }
-    if overflow {
-        return Err(NumberError::OutOfRange);
-    }
-    if negative {
-        Ok(value)
-    } else {
-        value.checked_neg().ok_or(NumberError::OutOfRange)
-    }
+    let value = match (overflow, negative) {
+        (true, _) => Err(NumberError::OutOfRange),
+        (false, true) => Ok(value),
+        (false, false) => value.checked_neg().ok_or(NumberError::OutOfRange),
+    };
+    (value, used)
 }
 
 /// Parses like parse_i64 and converts into a narrower integer type, OutOfRange if it does not fit.

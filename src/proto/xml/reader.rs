@@ -180,6 +180,34 @@ impl<'a> Tokenizer<'a> {
         self.simple_rest(at, tag, name.len())
     }
 
+    /// [`Tokenizer::simple_element_named`] for an element whose text is a short number, read
+    /// in the same pass that finds the text's end: `read` parses a number at the start of
+    /// the text and returns it with the length of its text. The element is taken, and the
+    /// number returned, only if its end tag follows that text at once; the text is then
+    /// exactly what [`Tokenizer::simple_element_named`] would have returned (number text
+    /// holds no `<`, `&` or whitespace), and `read` must give for it what parsing it alone
+    /// gives. Otherwise nothing is consumed.
+    #[inline]
+    pub fn simple_number<T>(
+        &mut self,
+        name: &[u8],
+        read: impl FnOnce(&[u8]) -> Option<(T, usize)>,
+    ) -> Option<T> {
+        let (at, tag) = self.simple_start()?;
+        if !has_prefix(tag, name) {
+            return None;
+        }
+        let content = tag.get(name.len()..)?.strip_prefix(b">")?;
+        let (value, used) = read(content)?;
+        let close = content.get(used..)?.strip_prefix(b"</")?;
+        if used == 0 || !has_prefix(close, name) || close.get(name.len()) != Some(&b'>') {
+            return None;
+        }
+        // at + '<' + name + '>' + text + '</' + name + '>'
+        self.pos = at + 2 * name.len() + used + 5;
+        Some(value)
+    }
+
     /// The shortcut for a start tag written plainly, `<name>`, after whitespace, where
     /// `name` is made of name bytes: consumes it and returns `true` exactly where
     /// [`Tokenizer::next_token`] would have read whitespace text and `Start(name)` without
@@ -207,7 +235,8 @@ impl<'a> Tokenizer<'a> {
     /// consumes nothing.
     pub fn plain_end(&mut self, name: &[u8]) -> bool {
         let open = self.depth.checked_sub(1).and_then(|d| self.open.get(d));
-        if !self.shortcut || self.place != Place::Root || open != Some(&name) {
+        let is_open = open.is_some_and(|open| open.len() == name.len() && has_prefix(open, name));
+        if !self.shortcut || self.place != Place::Root || !is_open {
             return false;
         }
         let rest = self.rest();
@@ -538,7 +567,7 @@ fn text_len(bytes: &[u8]) -> Option<usize> {
     tail.iter().position(|&b| is(b, TEXT_END)).map(|i| at + i)
 }
 
-/// Whether `bytes` starts with `prefix`. Names of 4 to 16 bytes are compared as two
+/// Whether `bytes` starts with `prefix`. Names of up to 16 bytes are compared as two
 /// overlapping fixed-size pieces: a call to `memcmp` costs more than such a short compare.
 fn has_prefix(bytes: &[u8], prefix: &[u8]) -> bool {
     fn same<const N: usize>(a: &[u8], b: &[u8], at: usize) -> bool {
@@ -550,6 +579,7 @@ fn has_prefix(bytes: &[u8], prefix: &[u8]) -> bool {
     match n {
         8..=16 => same::<8>(bytes, prefix, 0) && same::<8>(bytes, prefix, n - 8),
         4..8 => same::<4>(bytes, prefix, 0) && same::<4>(bytes, prefix, n - 4),
+        2..4 => same::<2>(bytes, prefix, 0) && same::<2>(bytes, prefix, n - 2),
         _ => bytes.starts_with(prefix),
     }
 }
