@@ -210,6 +210,17 @@ proptest! {
         check_parse(&text);
     }
 
+    /// A text without exponent reads the same with zeros appended to its fraction: past 19
+    /// bytes that takes the general scan instead of the short one, so the two agree.
+    #[test]
+    fn short_and_long_scans_agree(text in decimal_text()) {
+        if !text.contains(['e', 'E']) {
+            let point = if text.contains('.') { "" } else { "." };
+            let long = format!("{text}{point}{}", "0".repeat(20));
+            prop_assert_eq!(parse_f32(text.as_bytes()), parse_f32(long.as_bytes()), "{}", long);
+        }
+    }
+
     #[test]
     fn nine_digit_values_match_std(
         mantissa in 1u32..1_000_000_000,

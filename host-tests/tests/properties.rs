@@ -31,7 +31,10 @@ use x30_panel::proto::message::*;
 use x30_panel::proto::time::Timestamp;
 use x30_panel::proto::xml::number::NumberError;
 use x30_panel::proto::xml::writer::WriteError;
-use x30_panel::proto::xml::{Items, StructureError, read_document, read_document_general};
+
+#[path = "common/reader_trace.rs"]
+mod reader_trace;
+use reader_trace::reader_trace;
 
 /// The buffer the round-trip properties encode into: 4 KiB, which holds every message but
 /// the longest 1003 requests (see `encode_to_vec`).
@@ -451,26 +454,6 @@ fn check_shortcuts(body: &[u8]) -> Result<(), TestCaseError> {
         text(body)
     );
     Ok(())
-}
-
-/// Everything the document reader hands out for `body`, with or without its shortcuts.
-fn reader_trace(body: &[u8], shortcuts: bool) -> String {
-    let mut trace = String::new();
-    let mut on_items = |envelope: &_, items: &mut Items<'_>| {
-        trace.push_str(&format!("block {envelope:?}:"));
-        for item in items {
-            let item = item.map_err(StructureError::Xml)?;
-            trace.push_str(&format!(" {}={:?}", text(item.name), item.text.map(text)));
-        }
-        trace.push('\n');
-        Ok::<_, StructureError>(())
-    };
-    let result = if shortcuts {
-        read_document(body, &mut on_items)
-    } else {
-        read_document_general(body, &mut on_items)
-    };
-    format!("{trace}{result:?}")
 }
 
 // ---------------------------------------------------------------------------------------

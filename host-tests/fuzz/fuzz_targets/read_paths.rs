@@ -15,76 +15,62 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use x30_panel::proto::message::{Request, Response};
-use x30_panel::proto::xml::{StructureError, read_document, read_document_general};
+use std::fmt::Debug;
+use x30_panel::proto::message::{Decoded, Request, Response};
+use x30_panel::proto::time::Timestamp;
+
+#[path = "../../tests/common/reader_trace.rs"]
+mod reader_trace;
 
 /// Re-encoding buffer: larger than any message the codec can write.
 const ENCODE_BUF: usize = 16 * 1024;
 
 fuzz_target!(|body: &[u8]| {
-    assert_eq!(items_of(body, true), items_of(body, false), "read_document");
-
-    // Debug text throughout, so that a NaN would compare equal to itself.
-    let request = Request::decode(body);
     assert_eq!(
-        format!("{request:?}"),
-        format!("{:?}", Request::decode_general(body)),
-        "Request::decode"
+        reader_trace::reader_trace(body, true),
+        reader_trace::reader_trace(body, false),
+        "read_document"
     );
-    let response = Response::decode(body);
-    assert_eq!(
-        format!("{response:?}"),
-        format!("{:?}", Response::decode_general(body)),
-        "Response::decode"
+    check_direction(
+        "request",
+        body,
+        Request::decode,
+        Request::decode_general,
+        Request::encode,
     );
-
-    let mut out = vec![0u8; ENCODE_BUF];
-    if let Ok(decoded) = request {
-        let n = decoded
-            .message
-            .encode(&decoded.time, &mut out)
-            .expect("a decoded request encodes");
-        assert_eq!(
-            format!("{:?}", Request::decode(&out[..n])),
-            format!("{:?}", Ok::<_, ()>(decoded)),
-            "request round trip"
-        );
-    }
-    if let Ok(decoded) = response {
-        let n = decoded
-            .message
-            .encode(&decoded.time, &mut out)
-            .expect("a decoded response encodes");
-        assert_eq!(
-            format!("{:?}", Response::decode(&out[..n])),
-            format!("{:?}", Ok::<_, ()>(decoded)),
-            "response round trip"
-        );
-    }
+    check_direction(
+        "response",
+        body,
+        Response::decode,
+        Response::decode_general,
+        Response::encode,
+    );
 });
 
-/// Everything the reader hands out: each block's items (name and text), then the envelope
-/// and block count, or the error.
-fn items_of(body: &[u8], shortcut: bool) -> String {
-    let mut trace = String::new();
-    let mut on_items = |envelope: &_, items: &mut x30_panel::proto::xml::Items<'_>| {
-        trace.push_str(&format!("block {envelope:?}:"));
-        for item in items {
-            match item {
-                Ok(item) => trace.push_str(&format!(" {:?}={:?}", item.name, item.text)),
-                Err(e) => {
-                    trace.push_str(&format!(" error {e:?}"));
-                    return Err(StructureError::Xml(e));
-                }
-            }
-        }
-        trace.push('\n');
-        Ok::<_, StructureError>(())
-    };
-    let result = if shortcut {
-        read_document(body, &mut on_items)
-    } else {
-        read_document_general(body, &mut on_items)
-    };
-    format!("{trace}{result:?}")
+/// The invariants for one direction: `decode` gives what `decode_general` gives (compared
+/// as Debug text, so that a NaN equals itself), and what it accepts encodes to a body that
+/// decodes to the same message and `Time`.
+fn check_direction<M: Debug, E: Debug, W: Debug>(
+    what: &str,
+    body: &[u8],
+    decode: fn(&[u8]) -> Result<Decoded<M>, E>,
+    decode_general: fn(&[u8]) -> Result<Decoded<M>, E>,
+    encode: fn(&M, &Timestamp, &mut [u8]) -> Result<usize, W>,
+) {
+    let decoded = decode(body);
+    assert_eq!(
+        format!("{decoded:?}"),
+        format!("{:?}", decode_general(body)),
+        "{what}: decode against decode_general"
+    );
+    if let Ok(decoded) = decoded {
+        let mut out = vec![0u8; ENCODE_BUF];
+        let n = encode(&decoded.message, &decoded.time, &mut out)
+            .unwrap_or_else(|e| panic!("a decoded {what} does not encode: {e:?}"));
+        assert_eq!(
+            format!("{:?}", decode(&out[..n])),
+            format!("{:?}", Ok::<_, ()>(decoded)),
+            "{what}: round trip"
+        );
+    }
 }

@@ -156,7 +156,7 @@ where
                     time: header.time,
                 };
                 if empty {
-                    on_items(&envelope, &mut Items::fragment(&[], tokens.has_shortcut()))?;
+                    on_items(&envelope, &mut Items::fragment(&tokens, &[]))?;
                 } else {
                     let mut items = Items::inside(tokens.clone());
                     on_items(&envelope, &mut items)?;
@@ -188,7 +188,7 @@ where
     };
     for range in deferred.iter().take(deferred_count) {
         let content = input.get(range.clone()).unwrap_or_default();
-        let mut items = Items::fragment(content, tokens.has_shortcut());
+        let mut items = Items::fragment(&tokens, content);
         on_items(&envelope, &mut items)?;
         items.finish().map_err(xml)?;
     }
@@ -302,16 +302,11 @@ impl<'a> Items<'a> {
         }
     }
 
-    /// Items read from the content of a block remembered earlier, with or without the
-    /// shortcut as the document was read.
-    fn fragment(content: &'a [u8], shortcut: bool) -> Self {
-        let tokens = Tokenizer::fragment(content);
+    /// Items read from the content of a block remembered earlier by the document's
+    /// tokenizer `document`, with or without the shortcut as it reads.
+    fn fragment(document: &Tokenizer<'a>, content: &'a [u8]) -> Self {
         Self {
-            tokens: if shortcut {
-                tokens
-            } else {
-                tokens.without_shortcut()
-            },
+            tokens: document.fragment(content),
             depth: 0,
             done: false,
         }
@@ -325,9 +320,7 @@ impl<'a> Items<'a> {
         }
         Ok(self.tokens)
     }
-}
 
-impl<'a> Items<'a> {
     /// The next item's value if it is `name`, written plainly, with a number as text that
     /// `read` accepts (see [`Tokenizer::simple_number`]); consumes nothing and returns `None`
     /// otherwise.

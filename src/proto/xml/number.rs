@@ -505,6 +505,9 @@ impl Decimal {
     /// Reads the syntax of a float: sign, digits and '.', optional exponent.
     fn scan(text: &[u8]) -> Result<Self, NumberError> {
         let (negative, body) = split_sign(text)?;
+        if let Some(decimal) = Self::scan_short(negative, body) {
+            return Ok(decimal);
+        }
         let mut decimal = Decimal {
             negative,
             mantissa: 0,
@@ -546,6 +549,39 @@ impl Decimal {
         }
         decimal.exponent = decimal.exponent.saturating_add(written_exponent);
         Ok(decimal)
+    }
+
+    /// [`Decimal::scan`] for the usual text, digits with at most one '.' and no exponent,
+    /// short enough (19 bytes) that no digit needs dropping: two tight loops, one each side
+    /// of the point. `None` for anything else, which the general scan reads or refuses.
+    fn scan_short(negative: bool, body: &[u8]) -> Option<Self> {
+        if body.len() > 19 {
+            return None;
+        }
+        let mut mantissa = 0u64;
+        let whole = body.iter().take_while(|c| c.is_ascii_digit()).count();
+        let (digits, rest) = body.split_at_checked(whole)?;
+        for &c in digits {
+            mantissa = mantissa * 10 + u64::from(c - b'0');
+        }
+        let fraction = match rest.split_first() {
+            None => &[][..],
+            Some((b'.', fraction)) => fraction,
+            Some(_) => return None,
+        };
+        for &c in fraction {
+            let d = c.wrapping_sub(b'0');
+            if d > 9 {
+                return None;
+            }
+            mantissa = mantissa * 10 + u64::from(d);
+        }
+        (whole + fraction.len() > 0).then_some(Decimal {
+            negative,
+            mantissa,
+            exponent: -(fraction.len() as i32),
+            sticky: false,
+        })
     }
 
     /// The correctly rounded magnitude.

@@ -121,18 +121,15 @@ impl<'a> Tokenizer<'a> {
         }
     }
 
-    /// Whether [`Tokenizer::simple_element`] may take its shortcut.
-    pub fn has_shortcut(&self) -> bool {
-        self.shortcut
-    }
-
-    /// A tokenizer for element content already checked by a document pass, such as the
-    /// inside of an `<Items>` block: any number of elements and text at the top.
-    pub fn fragment(input: &'a [u8]) -> Self {
+    /// A tokenizer for element content this one has already checked, such as the inside of
+    /// an `<Items>` block remembered for later (any number of elements and text at the
+    /// top), taking the shortcut where this one does.
+    pub fn fragment(&self, content: &'a [u8]) -> Self {
         Self {
             place: Place::Root,
             fragment: true,
-            ..Self::document(input)
+            shortcut: self.shortcut,
+            ..Self::document(content)
         }
     }
 
@@ -200,7 +197,7 @@ impl<'a> Tokenizer<'a> {
         let content = tag.get(name.len()..)?.strip_prefix(b">")?;
         let (value, used) = read(content)?;
         let close = content.get(used..)?.strip_prefix(b"</")?;
-        if used == 0 || !has_prefix(close, name) || close.get(name.len()) != Some(&b'>') {
+        if used == 0 || !is_tag(close, name) {
             return None;
         }
         // at + '<' + name + '>' + text + '</' + name + '>'
@@ -216,7 +213,7 @@ impl<'a> Tokenizer<'a> {
         let Some((at, tag)) = self.simple_start() else {
             return false;
         };
-        if !has_prefix(tag, name) || tag.get(name.len()) != Some(&b'>') {
+        if !is_tag(tag, name) {
             return false;
         }
         // simple_start checked that one more level is allowed.
@@ -244,7 +241,7 @@ impl<'a> Tokenizer<'a> {
         let Some(tag) = rest.get(at..).and_then(|t| t.strip_prefix(b"</")) else {
             return false;
         };
-        if !has_prefix(tag, name) || tag.get(name.len()) != Some(&b'>') {
+        if !is_tag(tag, name) {
             return false;
         }
         self.depth -= 1;
@@ -275,7 +272,7 @@ impl<'a> Tokenizer<'a> {
         let content = after.strip_prefix(b">").filter(|_| !name.is_empty())?;
         let (text, after) = content.split_at_checked(text_len(content)?)?;
         let close = after.strip_prefix(b"</")?;
-        if !has_prefix(close, name) || close.get(name_len) != Some(&b'>') {
+        if !is_tag(close, name) {
             return None;
         }
         // at + '<' + name + '>' + text + '</' + name + '>'
@@ -582,6 +579,11 @@ fn has_prefix(bytes: &[u8], prefix: &[u8]) -> bool {
         2..4 => same::<2>(bytes, prefix, 0) && same::<2>(bytes, prefix, n - 2),
         _ => bytes.starts_with(prefix),
     }
+}
+
+/// Whether `bytes` starts with the tag name `name` and the `>` that closes it.
+fn is_tag(bytes: &[u8], name: &[u8]) -> bool {
+    has_prefix(bytes, name) && bytes.get(name.len()) == Some(&b'>')
 }
 
 /// Length of the XML name at the start of `bytes`.

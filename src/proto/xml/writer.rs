@@ -213,6 +213,38 @@ fn copy_fixed<const N: usize>(to: &mut [u8], from: &[u8], at: usize) {
     }
 }
 
+/// Longest element name of an item line written in a window ([`DocumentWriter::number_item`]);
+/// the longest item name in the protocol has 14 bytes.
+const NAME_MAX: usize = 16;
+
+/// Longest number text written in a window.
+const NUMBER_MAX: usize = F32_TEXT_MAX;
+
+/// The window an item line is written in: room for the indentation, the longest name twice,
+/// the longest number and the tags' six bytes.
+const LINE_WINDOW: usize = 64 + NUMBER_MAX;
+
+/// Writes the indentation and tags of an item line around a number of `n` bytes already
+/// formatted in place, and returns the line's length. The name is at most [`NAME_MAX`] and
+/// `n` at most [`NUMBER_MAX`] bytes, so every piece lands inside the window. The same for
+/// every kind of number, so kept out of line.
+#[inline(never)]
+fn item_tags(window: &mut [u8; LINE_WINDOW], name: &[u8], n: usize) -> usize {
+    let name_len = name.len().min(NAME_MAX);
+    let end = ITEM_INDENT.len() + name_len + 2 + n.min(NUMBER_MAX);
+    if let Some(start) = window.first_chunk_mut::<5>() {
+        *start = *b"    <";
+    }
+    let mut head = Cursor(window.get_mut(5..).unwrap_or_default());
+    head.put_name(name);
+    head.put(b">");
+    let mut tail = Cursor(window.get_mut(end..).unwrap_or_default());
+    tail.put(b"</");
+    tail.put_name(name);
+    tail.put(b">\n");
+    end + name_len + 4
+}
+
 /// The first `n` bytes of a formatted number.
 fn prefix(text: &[u8], n: usize) -> &[u8] {
     text.get(..n).unwrap_or_default()
@@ -302,9 +334,11 @@ impl<'a> DocumentWriter<'a> {
     }
 
     /// Writes one item line whose value is a number that `format` writes into an array of
-    /// its longest text. Where the buffer has room for that, the number is formatted in
-    /// place, where it goes between the start tag and the end tag, so that it is never
-    /// copied; near the buffer's end it is formatted aside and copied only if it fits.
+    /// its longest text. Where the buffer has room for the longest such line, the line is
+    /// written into a fixed-size window of it: the tags are stores at offsets checked once,
+    /// and the number is formatted in place, between them, never copied. Near the buffer's
+    /// end (or for a name longer than any item's) it is formatted aside and copied only if
+    /// it fits.
     #[inline]
     fn number_item<const N: usize>(
         &mut self,
@@ -314,43 +348,26 @@ impl<'a> DocumentWriter<'a> {
         self.open_items()?;
         let name = name.as_bytes();
         let out = self.w.buf.get_mut(self.w.len..).unwrap_or_default();
+        let window = out.first_chunk_mut::<LINE_WINDOW>();
         let start = ITEM_INDENT.len() + name.len() + 2;
-        let room = out.len() >= start + N + name.len() + 4;
-        match out
-            .get_mut(start..)
-            .and_then(|rest| rest.first_chunk_mut::<N>())
-        {
-            Some(text) if room => {
-                let n = format(text)?;
-                self.around_number(name, n);
+        match window.filter(|_| name.len() <= NAME_MAX && N <= NUMBER_MAX) {
+            Some(window) => {
+                let text = window
+                    .get_mut(start..)
+                    .and_then(|rest| rest.first_chunk_mut::<N>());
+                let n = match text {
+                    Some(text) => format(text)?,
+                    None => 0,
+                };
+                self.w.len += item_tags(window, name, n);
                 Ok(())
             }
-            _ => {
+            None => {
                 let mut text = [0; N];
                 let n = format(&mut text)?;
                 self.number_line(name, text.get(..n).unwrap_or_default())
             }
         }
-    }
-
-    /// Writes the tags around a number of `n` bytes already formatted in place, where
-    /// [`DocumentWriter::number_item`] checked there is room. The same for every kind of
-    /// number, so kept out of line.
-    #[inline(never)]
-    fn around_number(&mut self, name: &[u8], n: usize) {
-        let start = ITEM_INDENT.len() + name.len() + 2;
-        let out = self.w.buf.get_mut(self.w.len..).unwrap_or_default();
-        let (head, rest) = out.split_at_mut(start.min(out.len()));
-        let mut head = Cursor(head);
-        head.put(ITEM_INDENT);
-        head.put(b"<");
-        head.put_name(name);
-        head.put(b">");
-        let mut tail = Cursor(rest.get_mut(n..).unwrap_or_default());
-        tail.put(b"</");
-        tail.put_name(name);
-        tail.put(b">\n");
-        self.w.len += start + n + name.len() + 4;
     }
 
     /// Writes an item line whose number was formatted aside, near the buffer's end.
