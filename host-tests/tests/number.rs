@@ -221,6 +221,23 @@ proptest! {
         }
     }
 
+    /// A fraction with one byte that is not a digit is refused, wherever the byte is: the
+    /// word-at-a-time digit check sees every byte of its word.
+    #[test]
+    fn a_stray_byte_in_a_fraction_is_refused(
+        whole in "[0-9]{1,3}",
+        fraction in "[0-9]{8,15}",
+        at in any::<prop::sample::Index>(),
+        stray in any::<u8>().prop_filter("not a digit or exponent", |b| {
+            !b.is_ascii_digit() && !b"eE".contains(b)
+        }),
+    ) {
+        let mut text = format!("{whole}.{fraction}").into_bytes();
+        let i = whole.len() + 1 + at.index(fraction.len());
+        text[i] = stray;
+        prop_assert!(parse_f32(&text).is_err(), "{:?}", String::from_utf8_lossy(&text));
+    }
+
     #[test]
     fn nine_digit_values_match_std(
         mantissa in 1u32..1_000_000_000,
