@@ -222,7 +222,7 @@ proptest! {
     }
 
     /// A fraction with one byte that is not a digit is refused, wherever the byte is: the
-    /// word-at-a-time digit check sees every byte of its word.
+    /// short scan checks every byte it takes as a digit.
     #[test]
     fn a_stray_byte_in_a_fraction_is_refused(
         whole in "[0-9]{1,3}",

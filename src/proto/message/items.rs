@@ -133,26 +133,33 @@ pub trait ItemSet: Sized {
 }
 
 /// A quick test that a name is none of a table's: a Bloom filter over the names' length,
-/// first and last letter, two bits per name. An unknown item (a real robot sends several in
-/// each status answer) mostly misses one of its bits, and then needs no search through the
-/// table.
+/// first and last letter, two bits of 128 per name. An unknown item (a real robot sends
+/// several in each status answer) mostly misses one of its bits, and then needs no search
+/// through the table. The bits are kept in 32-bit words, which the microcontroller shifts
+/// in one instruction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct NameFilter(u128);
+pub struct NameFilter([u32; 4]);
 
 impl NameFilter {
     /// The bits of every name in `spec`.
     pub const fn of(spec: &[ItemSpec]) -> Self {
-        let mut bits = 0;
+        let mut set: u128 = 0;
         let mut rest = spec;
         while let [item, tail @ ..] = rest {
-            bits |= Self::bits(item.name.as_bytes());
+            let [a, b] = Self::bits(item.name.as_bytes());
+            set |= 1 << a | 1 << b;
             rest = tail;
         }
-        Self(bits)
+        Self([
+            set as u32,
+            (set >> 32) as u32,
+            (set >> 64) as u32,
+            (set >> 96) as u32,
+        ])
     }
 
-    /// The two bits of `name`; names equal but for ASCII case share them.
-    const fn bits(name: &[u8]) -> u128 {
+    /// The two bit numbers (below 128) of `name`; names equal but for ASCII case share them.
+    const fn bits(name: &[u8]) -> [u32; 2] {
         let (first, last) = match name {
             [first, .., last] => (*first, *last),
             [only] => (*only, *only),
@@ -161,13 +168,15 @@ impl NameFilter {
         // Fibonacci hashing: the top bits of the product mix every input bit.
         let key = (name.len() as u32) << 16 | ((first | 0x20) as u32) << 8 | (last | 0x20) as u32;
         let hash = key.wrapping_mul(0x9e37_79b9);
-        1 << (hash >> 25) | 1 << ((hash >> 18) & 127)
+        [hash >> 25, (hash >> 18) & 127]
     }
 
     /// Whether `name` (compared without regard to ASCII case) may be one of the table's.
     fn may_hold(self, name: &[u8]) -> bool {
-        let bits = Self::bits(name);
-        self.0 & bits == bits
+        Self::bits(name).iter().all(|&bit| {
+            let word = self.0.get((bit / 32) as usize).copied().unwrap_or(0);
+            word & 1 << (bit % 32) != 0
+        })
     }
 }
 
