@@ -216,8 +216,9 @@ fn read_values(
         // The usual layout: the item the table lists next, written plainly. An integer's
         // text is short, so it is read in the pass that finds its end; a float's text is
         // found first (a word at a time) and parsed after, which keeps the work that the
-        // next line has to wait for short.
-        if let Some((spec, value)) = spec.get(next).zip(values.get_mut(next)) {
+        // next line has to wait for short. Another item written plainly is read by the same
+        // pass, its name scanned rather than compared.
+        let item = if let Some((spec, value)) = spec.get(next).zip(values.get_mut(next)) {
             let integer = match spec.kind {
                 Kind::Float => None,
                 Kind::Int => items.next_number(spec.name, number::parse_int_prefix::<i32>),
@@ -230,13 +231,19 @@ fn read_values(
                 next += 1;
                 continue;
             }
-            if let Some(text) = items.next_named(spec.name) {
-                *value = Some(parse_text(Some(text), spec)?);
-                next += 1;
-                continue;
+            match items.next_plain(spec.name) {
+                Some((item, true)) => {
+                    *value = Some(parse_text(item.text, spec)?);
+                    next += 1;
+                    continue;
+                }
+                Some((other, false)) => Some(Ok(other)),
+                None => items.next(),
             }
-        }
-        let Some(item) = items.next() else {
+        } else {
+            items.next()
+        };
+        let Some(item) = item else {
             break;
         };
         let item = item?;

@@ -336,18 +336,22 @@ impl<'a> Items<'a> {
         self.tokens.simple_number(name.as_bytes(), read)
     }
 
-    /// The next item's trimmed text if it is `name`, written plainly (`<name>text</name>`):
-    /// the usual layout, where items follow their table's order. Consumes nothing and
-    /// returns `None` otherwise; [`Items::next`] then reads whatever is there. Returns
-    /// exactly what [`Items::next`] would have.
+    /// The next item if it is written plainly (`<name>text</name>`, the usual layout), and
+    /// whether it is `expected` (the item its table lists next, whose name is then compared
+    /// rather than scanned). Consumes nothing and returns `None` otherwise; [`Items::next`]
+    /// then reads whatever is there. Returns exactly what [`Items::next`] would have.
     #[inline]
-    pub fn next_named(&mut self, name: &str) -> Option<&'a [u8]> {
+    pub fn next_plain(&mut self, expected: &str) -> Option<(Item<'a>, bool)> {
         if self.done {
             return None;
         }
-        let element = self.tokens.simple_element_named(name.as_bytes())?;
+        let (element, is_expected) = self.tokens.simple_element_expecting(expected.as_bytes())?;
         self.tokens.take(&element);
-        Some(element.text)
+        let item = Item {
+            name: element.name,
+            text: Some(element.text),
+        };
+        Some((item, is_expected))
     }
 }
 

@@ -163,27 +163,31 @@ impl<'a> Tokenizer<'a> {
         self.simple_rest(at, tag, name_len)
     }
 
-    /// [`Tokenizer::simple_element`] for an element expected to be called `name` (the next
-    /// item of a table, in the usual layout): the name is compared rather than scanned, and
-    /// anything else declines.
+    /// [`Tokenizer::simple_element`] where an element called `name` is expected (the next
+    /// item of a table, in the usual layout): if it is that element, its name is compared
+    /// rather than scanned. Returns the element and whether it is `name`.
     #[inline]
-    pub fn simple_element_named(&self, name: &[u8]) -> Option<SimpleElement<'a>> {
+    pub fn simple_element_expecting(&self, name: &[u8]) -> Option<(SimpleElement<'a>, bool)> {
         let (at, tag) = self.simple_start()?;
-        // `name>` at the start of the tag is exactly a name scan that stops at `>`, for
-        // the names of the item tables (made of name bytes).
-        if !has_prefix(tag, name) {
-            return None;
-        }
-        self.simple_rest(at, tag, name.len())
+        // `name>` at the start of the tag is exactly what a name scan stops at, for the
+        // names of the item tables (made of name bytes).
+        let expected = is_tag(tag, name);
+        let name_len = if expected {
+            name.len()
+        } else {
+            run(tag, NAME_BYTE)
+        };
+        Some((self.simple_rest(at, tag, name_len)?, expected))
     }
 
-    /// [`Tokenizer::simple_element_named`] for an element whose text is a short number, read
-    /// in the same pass that finds the text's end: `read` parses a number at the start of
-    /// the text and returns it with the length of its text. The element is taken, and the
-    /// number returned, only if its end tag follows that text at once; the text is then
-    /// exactly what [`Tokenizer::simple_element_named`] would have returned (number text
-    /// holds no `<`, `&` or whitespace), and `read` must give for it what parsing it alone
-    /// gives. Otherwise nothing is consumed.
+    /// [`Tokenizer::simple_element_expecting`] for the expected element `name` whose text
+    /// is a short number, read in the same pass that finds the text's end: `read` parses a
+    /// number at the start of the text and returns it with the length of its text. The
+    /// element is taken, and the number returned, only if it is `name` and its end tag
+    /// follows that text at once; the text is then exactly what
+    /// [`Tokenizer::simple_element_expecting`] would have returned (number text holds no
+    /// `<`, `&` or whitespace), and `read` must give for it what parsing it alone gives.
+    /// Otherwise nothing is consumed.
     #[inline]
     pub fn simple_number<T>(
         &mut self,
