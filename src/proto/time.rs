@@ -78,37 +78,43 @@ impl Timestamp {
 
     /// Parses `YYYY-MM-DD HH:MM:SS`.
     pub fn decode(text: &[u8]) -> Result<Self, BadTimestamp> {
-        // `0` stands for a digit; every other byte must be there as written.
-        const LAYOUT: &[u8; TIME_TEXT_LEN] = b"0000-00-00 00:00:00";
         let text: &[u8; TIME_TEXT_LEN] = text.try_into().map_err(|_| BadTimestamp)?;
-        let mut fields = [0u16; 6];
-        let mut field = 0;
-        for (&c, &expected) in text.iter().zip(LAYOUT) {
-            if expected != b'0' {
-                if c != expected {
-                    return Err(BadTimestamp);
-                }
-                field += 1;
-                continue;
-            }
-            let digit = c.wrapping_sub(b'0');
-            if digit > 9 {
-                return Err(BadTimestamp);
-            }
-            if let Some(value) = fields.get_mut(field) {
-                *value = *value * 10 + u16::from(digit);
-            }
+        // Every byte has its fixed place, so each is checked and read there, with nothing
+        // carried from byte to byte.
+        let [
+            y0,
+            y1,
+            y2,
+            y3,
+            dash0,
+            mo0,
+            mo1,
+            dash1,
+            d0,
+            d1,
+            space,
+            h0,
+            h1,
+            colon0,
+            mi0,
+            mi1,
+            colon1,
+            s0,
+            s1,
+        ] = text.map(|c| c.wrapping_sub(b'0'));
+        let separators = [dash0, dash1, space, colon0, colon1].map(|c| c.wrapping_add(b'0'));
+        let digits = [y0, y1, y2, y3, mo0, mo1, d0, d1, h0, h1, mi0, mi1, s0, s1];
+        if separators != *b"-- ::" || digits.iter().any(|&d| d > 9) {
+            return Err(BadTimestamp);
         }
-        let [year, month, day, hour, minute, second] = fields;
-        // Two digits always fit a u8.
-        let narrow = |v: u16| v as u8;
+        let two = |tens: u8, ones: u8| tens * 10 + ones;
         Ok(Self {
-            year,
-            month: narrow(month),
-            day: narrow(day),
-            hour: narrow(hour),
-            minute: narrow(minute),
-            second: narrow(second),
+            year: u16::from(two(y0, y1)) * 100 + u16::from(two(y2, y3)),
+            month: two(mo0, mo1),
+            day: two(d0, d1),
+            hour: two(h0, h1),
+            minute: two(mi0, mi1),
+            second: two(s0, s1),
         })
     }
 
