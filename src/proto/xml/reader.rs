@@ -586,6 +586,7 @@ fn has_prefix(bytes: &[u8], prefix: &[u8]) -> bool {
 }
 
 /// Whether `bytes` starts with the tag name `name` and the `>` that closes it.
+#[inline(always)]
 fn is_tag(bytes: &[u8], name: &[u8]) -> bool {
     has_prefix(bytes, name) && bytes.get(name.len()) == Some(&b'>')
 }
