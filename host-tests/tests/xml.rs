@@ -44,6 +44,40 @@ fn declaration_styles_and_none() {
     }
 }
 
+/// The shortcut for the document's start (a declaration, whitespace, `<PatrolDevice>`)
+/// gives exactly what the general path gives for every start it takes or declines:
+/// the usual ones, and ones it must leave to the general path (two declarations, a comment,
+/// a form feed, an unclosed declaration, attributes, another root, an empty root).
+#[test]
+fn document_starts_read_alike_by_both_paths() {
+    let body = BODY.trim_start_matches("<PatrolDevice>");
+    for start in [
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<PatrolDevice>",
+        "<PatrolDevice>",
+        "\n \t<PatrolDevice>",
+        "<??><PatrolDevice>",
+        "<?xml?><?other?>\n<PatrolDevice>",
+        "<?xml?><!-- c --><PatrolDevice>",
+        "<?xml?>\x0c<PatrolDevice>",
+        "<?xml <PatrolDevice>",
+        "<?xml?><PatrolDevice a=\"1\">",
+        "<?xml?><PatrolDevice >",
+        "<?xml?><PatrolDevices>",
+        "<?xml?><PatrolDevice/>",
+        "<?xml?><Other>",
+        "<?xml?>text<PatrolDevice>",
+        "<?xml?>",
+    ] {
+        let document = format!("{start}{body}");
+        assert_eq!(
+            format!("{:?}", Response::decode(document.as_bytes())),
+            format!("{:?}", Response::decode_general(document.as_bytes())),
+            "{document}"
+        );
+    }
+    assert_obstacle(&format!("<?xml?>\n<PatrolDevice>{body}"));
+}
+
 #[test]
 fn any_whitespace_and_comments() {
     assert_obstacle(&BODY.replace("><", ">\n\t\t<"));

@@ -101,9 +101,11 @@ where
 {
     let input = tokens.input();
     let xml = |e: XmlError| E::from(StructureError::Xml(e));
-    match tokens.next_token().map_err(xml)? {
-        Some(Token::Start(b"PatrolDevice")) => {}
-        _ => return Err(StructureError::NotPatrolDevice.into()),
+    if !tokens.plain_root(b"PatrolDevice") {
+        match tokens.next_token().map_err(xml)? {
+            Some(Token::Start(b"PatrolDevice")) => {}
+            _ => return Err(StructureError::NotPatrolDevice.into()),
+        }
     }
     let mut header = Header::default();
     let mut deferred = [const { 0..0 }; MAX_ITEMS_BLOCKS];

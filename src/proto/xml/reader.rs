@@ -209,6 +209,39 @@ impl<'a> Tokenizer<'a> {
         Some(value)
     }
 
+    /// The shortcut for the usual start of a document: one declaration (`<?…?>`) or none,
+    /// whitespace, then the root's start tag written plainly, `<name>`, where `name` is made
+    /// of name bytes. Consumes them and returns `true` exactly where
+    /// [`Tokenizer::next_token`] would have skipped the same declaration and whitespace and
+    /// read `Start(name)` without error; otherwise consumes nothing.
+    pub fn plain_root(&mut self, name: &'static [u8]) -> bool {
+        if !self.shortcut || self.place != Place::Prolog || self.fragment {
+            return false;
+        }
+        let rest = self.rest();
+        let mut at = 0;
+        if rest.starts_with(b"<?") {
+            // What the general path skips: up to the first `?>`, whatever is inside.
+            let Some(end) = find(rest, b"?>") else {
+                return false;
+            };
+            at = end + 2;
+        }
+        let tail = rest.get(at..).unwrap_or_default();
+        at += skip_spaces(tail);
+        let Some(tag) = rest.get(at..).and_then(|t| t.strip_prefix(b"<")) else {
+            return false;
+        };
+        match self.open.first_mut() {
+            Some(slot) if self.depth == 0 && is_tag(tag, name) => *slot = name,
+            _ => return false,
+        }
+        self.depth = 1;
+        self.place = Place::Root;
+        self.pos += at + name.len() + 2;
+        true
+    }
+
     /// The shortcut for a start tag written plainly, `<name>`, after whitespace, where
     /// `name` is made of name bytes: consumes it and returns `true` exactly where
     /// [`Tokenizer::next_token`] would have read whitespace text and `Start(name)` without
