@@ -4,9 +4,10 @@
 //! more `Items` blocks, in any order. [`read_document`] walks it once and hands each
 //! `Items` block to the caller together with the `Type` it belongs to.
 //!
-//! Lines in the usual layout (`<Name>text</Name>`, `<Items>`, `</Items>`) are read by the
-//! tokenizer's shortcuts ([`Tokenizer::simple_element`] and its siblings) without making
-//! tokens; anything else goes token by token. The shortcuts yield exactly what the tokens
+//! The usual start (declaration, `<PatrolDevice>`) and lines in the usual layout
+//! (`<Name>text</Name>`, `<Items>`, `</Items>`) are read by the tokenizer's shortcuts
+//! ([`Tokenizer::plain_root`], [`Tokenizer::simple_element`] and their siblings) without
+//! making tokens; anything else goes token by token. The shortcuts yield exactly what the tokens
 //! would, which [`read_document_general`] (every shortcut off) lets tests check.
 
 pub mod number;
