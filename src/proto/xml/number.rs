@@ -416,6 +416,31 @@ const POW5_FINE: [u64; 16] = [
     0xe35f_a931_a000_0000,
 ];
 
+/// `10^-k` for `k = 0..20` as the significand of an [`Approx`] (`e` is
+/// `-k + log2_pow5(-k) - 63`), rounded to nearest.
+const POW10_NEGATIVE: [u64; 20] = [
+    0x8000_0000_0000_0000,
+    0xcccc_cccc_cccc_cccd,
+    0xa3d7_0a3d_70a3_d70a,
+    0x8312_6e97_8d4f_df3b,
+    0xd1b7_1758_e219_652c,
+    0xa7c5_ac47_1b47_8423,
+    0x8637_bd05_af6c_69b6,
+    0xd6bf_94d5_e57a_42bc,
+    0xabcc_7711_8461_cefd,
+    0x8970_5f41_36b4_a597,
+    0xdbe6_fece_bded_d5bf,
+    0xafeb_ff0b_cb24_aaff,
+    0x8cbc_cc09_6f50_88cc,
+    0xe12e_1342_4bb4_0e13,
+    0xb424_dc35_095c_d80f,
+    0x901d_7cf7_3ab0_acd9,
+    0xe695_94be_c44d_e15b,
+    0xb877_aa32_36a4_b449,
+    0x9392_ee8e_921d_5d07,
+    0xec1e_4a7d_b695_61a5,
+];
+
 impl Approx {
     /// `v·2^e`, exactly (`v > 0`).
     fn new(v: u64, e: i32) -> Self {
@@ -439,8 +464,16 @@ impl Approx {
 
     /// `10^e` for `-64 <= e < 64`, as `2^e·5^(16q)·5^r` with `0 <= r < 16`: one product of
     /// two table entries, the first within `2^-64` (relative) and the second exact, truncated
-    /// (below `2^-63` more), so within `3·2^-64`; exact for `0 <= e < 28`.
+    /// (below `2^-63` more), so within `3·2^-64`; exact for `0 <= e < 28`. The exponents
+    /// of usual float text, `-19 <= e <= 0` (a fraction's digits), are one entry of
+    /// [`POW10_NEGATIVE`] instead, within `2^-64`, which saves the product.
     fn pow10(e: i32) -> Self {
+        if let Some(&m) = usize::try_from(-e).ok().and_then(|k| POW10_NEGATIVE.get(k)) {
+            return Approx {
+                m,
+                e: e + log2_pow5(e) - 63,
+            };
+        }
         let (q, r) = (e >> 4, e & 15);
         let coarse = Approx {
             m: table(&POW5_COARSE, (q + 4) as usize),
