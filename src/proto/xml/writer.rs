@@ -232,10 +232,9 @@ const LINE_WINDOW: usize = 64 + NUMBER_MAX;
 fn item_tags(window: &mut [u8; LINE_WINDOW], name: &[u8], n: usize) -> usize {
     let name_len = name.len().min(NAME_MAX);
     let end = ITEM_INDENT.len() + name_len + 2 + n.min(NUMBER_MAX);
-    if let Some(start) = window.first_chunk_mut::<5>() {
-        *start = *b"    <";
-    }
-    let mut head = Cursor(window.get_mut(5..).unwrap_or_default());
+    let mut head = Cursor(window);
+    head.put(ITEM_INDENT);
+    head.put(b"<");
     head.put_name(name);
     head.put(b">");
     let mut tail = Cursor(window.get_mut(end..).unwrap_or_default());
