@@ -137,7 +137,7 @@ pub trait ItemSet: Sized {
 /// several in each status answer) mostly misses one of its bits, and then needs no search
 /// through the table. The bits are kept in 32-bit words, which the microcontroller shifts
 /// in one instruction.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Clone, Copy)]
 pub struct NameFilter([u32; 4]);
 
 impl NameFilter {

@@ -200,12 +200,10 @@ impl<'a> Tokenizer<'a> {
         }
         let content = tag.get(name.len()..)?.strip_prefix(b">")?;
         let (value, used) = read(content)?;
-        let close = content.get(used..)?.strip_prefix(b"</")?;
-        if used == 0 || !is_tag(close, name) {
+        if used == 0 {
             return None;
         }
-        // at + '<' + name + '>' + text + '</' + name + '>'
-        self.pos = at + 2 * name.len() + used + 5;
+        self.pos = closed_at(at, name, used, content.get(used..)?)?;
         Some(value)
     }
 
@@ -269,7 +267,7 @@ impl<'a> Tokenizer<'a> {
     /// consumes nothing.
     pub fn plain_end(&mut self, name: &[u8]) -> bool {
         let open = self.depth.checked_sub(1).and_then(|d| self.open.get(d));
-        let is_open = open.is_some_and(|open| open.len() == name.len() && has_prefix(open, name));
+        let is_open = open.is_some_and(|open| same_name(open, name));
         if !self.shortcut || self.place != Place::Root || !is_open {
             return false;
         }
@@ -308,16 +306,10 @@ impl<'a> Tokenizer<'a> {
         let (name, after) = tag.split_at_checked(name_len)?;
         let content = after.strip_prefix(b">").filter(|_| !name.is_empty())?;
         let (text, after) = content.split_at_checked(text_len(content)?)?;
-        let close = after.strip_prefix(b"</")?;
-        if !is_tag(close, name) {
-            return None;
-        }
-        // at + '<' + name + '>' + text + '</' + name + '>'
-        let end = at + 2 * name_len + text.len() + 5;
         Some(SimpleElement {
             name,
             text: text.trim_ascii(),
-            end,
+            end: closed_at(at, name, text.len(), after)?,
         })
     }
 
@@ -616,6 +608,20 @@ fn has_prefix(bytes: &[u8], prefix: &[u8]) -> bool {
         2..4 => same::<2>(bytes, prefix, 0) && same::<2>(bytes, prefix, n - 2),
         _ => bytes.starts_with(prefix),
     }
+}
+
+/// Whether the names `a` and `b` are the same, compared as [`has_prefix`] does.
+fn same_name(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && has_prefix(a, b)
+}
+
+/// Where a simple element that starts at `at` ends, if `after` (what follows its text of
+/// `text_len` bytes) starts with its end tag `</name>` written exactly.
+#[inline(always)]
+fn closed_at(at: usize, name: &[u8], text_len: usize, after: &[u8]) -> Option<usize> {
+    let close = after.strip_prefix(b"</")?;
+    // at + '<' + name + '>' + text + '</' + name + '>'
+    is_tag(close, name).then_some(at + 2 * name.len() + text_len + 5)
 }
 
 /// Whether `bytes` starts with the tag name `name` and the `>` that closes it.

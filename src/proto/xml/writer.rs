@@ -117,15 +117,9 @@ impl<'a> XmlWriter<'a> {
             .get_mut(self.len..self.len + total)
             .ok_or(WriteError::BufferFull)?;
         let mut out = Cursor(out);
-        out.put(indent);
-        out.put(b"<");
-        out.put(name);
-        out.put(b">");
+        out.open_tag(indent, name);
         out.put(value);
-        out.put(b"</");
-        out.put(name);
-        out.put(b">");
-        out.put(newline);
+        out.close_tag(name, newline);
         self.len += total;
         Ok(())
     }
@@ -166,6 +160,24 @@ impl Cursor<'_> {
             head.copy_from_slice(bytes);
             self.0 = tail;
         }
+    }
+
+    /// Writes `{indent}<name>`, the start of a line.
+    #[inline(always)]
+    fn open_tag(&mut self, indent: &[u8], name: &[u8]) {
+        self.put(indent);
+        self.put(b"<");
+        self.put_name(name);
+        self.put(b">");
+    }
+
+    /// Writes `</name>{newline}`, the end of a line.
+    #[inline(always)]
+    fn close_tag(&mut self, name: &[u8], newline: &[u8]) {
+        self.put(b"</");
+        self.put_name(name);
+        self.put(b">");
+        self.put(newline);
     }
 
     /// [`Cursor::put`] for an element name: 4 to 16 bytes are copied as two overlapping
@@ -232,15 +244,8 @@ const LINE_WINDOW: usize = 64 + NUMBER_MAX;
 fn item_tags(window: &mut [u8; LINE_WINDOW], name: &[u8], n: usize) -> usize {
     let name_len = name.len().min(NAME_MAX);
     let end = ITEM_INDENT.len() + name_len + 2 + n.min(NUMBER_MAX);
-    let mut head = Cursor(window);
-    head.put(ITEM_INDENT);
-    head.put(b"<");
-    head.put_name(name);
-    head.put(b">");
-    let mut tail = Cursor(window.get_mut(end..).unwrap_or_default());
-    tail.put(b"</");
-    tail.put_name(name);
-    tail.put(b">\n");
+    Cursor(window).open_tag(ITEM_INDENT, name);
+    Cursor(window.get_mut(end..).unwrap_or_default()).close_tag(name, b"\n");
     end + name_len + 4
 }
 
