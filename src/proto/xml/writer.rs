@@ -117,9 +117,9 @@ impl<'a> XmlWriter<'a> {
             .get_mut(self.len..self.len + total)
             .ok_or(WriteError::BufferFull)?;
         let mut out = Cursor(out);
-        out.open_tag(indent, name);
+        out.open_tag(indent, name, Cursor::put);
         out.put(value);
-        out.close_tag(name, newline);
+        out.close_tag(name, newline, Cursor::put);
         self.len += total;
         Ok(())
     }
@@ -162,20 +162,21 @@ impl Cursor<'_> {
         }
     }
 
-    /// Writes `{indent}<name>`, the start of a line.
+    /// Writes `{indent}<name>`, the start of a line, the name copied by `put_name`
+    /// ([`Cursor::put_name`] where the line is hot, [`Cursor::put`] where size matters more).
     #[inline(always)]
-    fn open_tag(&mut self, indent: &[u8], name: &[u8]) {
+    fn open_tag(&mut self, indent: &[u8], name: &[u8], put_name: fn(&mut Self, &[u8])) {
         self.put(indent);
         self.put(b"<");
-        self.put_name(name);
+        put_name(self, name);
         self.put(b">");
     }
 
-    /// Writes `</name>{newline}`, the end of a line.
+    /// Writes `</name>{newline}`, the end of a line, the name copied by `put_name`.
     #[inline(always)]
-    fn close_tag(&mut self, name: &[u8], newline: &[u8]) {
+    fn close_tag(&mut self, name: &[u8], newline: &[u8], put_name: fn(&mut Self, &[u8])) {
         self.put(b"</");
-        self.put_name(name);
+        put_name(self, name);
         self.put(b">");
         self.put(newline);
     }
@@ -244,8 +245,8 @@ const LINE_WINDOW: usize = 64 + NUMBER_MAX;
 fn item_tags(window: &mut [u8; LINE_WINDOW], name: &[u8], n: usize) -> usize {
     let name_len = name.len().min(NAME_MAX);
     let end = ITEM_INDENT.len() + name_len + 2 + n.min(NUMBER_MAX);
-    Cursor(window).open_tag(ITEM_INDENT, name);
-    Cursor(window.get_mut(end..).unwrap_or_default()).close_tag(name, b"\n");
+    Cursor(window).open_tag(ITEM_INDENT, name, Cursor::put_name);
+    Cursor(window.get_mut(end..).unwrap_or_default()).close_tag(name, b"\n", Cursor::put_name);
     end + name_len + 4
 }
 
