@@ -912,72 +912,119 @@ fn shl(v: u64, n: u32) -> Option<u64> {
     (n < v.leading_zeros()).then(|| v << n)
 }
 
-/// Writes `[-]digits·10^exponent` the way `{}` does, never with an exponent.
+/// Writes `[-]digits·10^exponent` the way `{}` does, never with an exponent, for
+/// `digits <= 10^9`.
+///
+/// The digits are made all at once ([`eight_ascii`]) and the text is written with 8-byte
+/// stores, runs of zeros included; bytes stored past the text's end are left for the
+/// caller to ignore. No store reaches past `out`'s end: the text's last byte is at most at
+/// 47, and stores that would pass 48 are moved back over bytes that are zeros anyway.
 fn render(negative: bool, digits: u32, exponent: i32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
-    let mut text = Cursor { out, len: 0 };
-    if negative {
-        text.push(b'-');
+    // 10^9, the only ten-digit number the window yields, is 10^8 one place up.
+    let (digits, exponent) = if digits >= 1_000_000_000 {
+        (digits / 10, exponent + 1)
+    } else {
+        (digits, exponent)
+    };
+    let start = usize::from(negative);
+    // Overwritten by what follows unless the number is negative.
+    put(out, 0, b'-');
+    // Found by comparisons rather than from the digits: the branches are predicted, so the
+    // stores below need not wait for the digits to know where they go.
+    let len = nine_digit_len(digits);
+    // Where the point goes, in digits from the first: at or past the last for an integer,
+    // at or before the first for a number below one.
+    let point = len as i32 + exponent;
+    let at = if point > 0 {
+        start
+    } else {
+        // "0." and the zeros before the digits.
+        let digits_at = start + 2 + point.unsigned_abs() as usize;
+        fill_zeros(out, start, digits_at);
+        put(out, start + 1, b'.');
+        digits_at
+    };
+    // The first of nine (zero-padded) digits alone, the others in one word, of which the
+    // last `in_word` are the number's.
+    put(out, at, b'0' + (digits / 100_000_000) as u8);
+    let padded = eight_ascii(digits % 100_000_000);
+    let in_word = len.min(8);
+    let word_at = at + len - in_word;
+    let word = padded >> (8 * (8 - in_word));
+    if word_at + 8 <= F32_TEXT_MAX {
+        store8(out, word_at, word);
+    } else {
+        // Only after at least 38 zeros: the padding lands on zeros.
+        store8(out, word_at + in_word - 8, padded);
     }
-    let mut buffer = [0u8; 10];
-    let digits = ascii_u32(digits, &mut buffer);
-    if exponent >= 0 {
-        text.extend(digits);
-        for _ in 0..exponent {
-            text.push(b'0');
+    let end = at + len;
+    match usize::try_from(point) {
+        Ok(whole) if whole >= len => {
+            let end_zeros = end + (whole - len);
+            fill_zeros(out, end, end_zeros);
+            end_zeros
         }
-        return text.len;
+        Ok(whole) if whole > 0 => {
+            // The fraction again, one place further on, then the point before it.
+            store8(out, at + whole + 1, word >> (8 * (whole - (len - in_word))));
+            put(out, at + whole, b'.');
+            end + 1
+        }
+        _ => end,
     }
-    let fraction = exponent.unsigned_abs() as usize;
-    match digits.len().checked_sub(fraction) {
-        Some(whole) if whole > 0 => {
-            let (int, frac) = digits.split_at_checked(whole).unwrap_or((digits, &[]));
-            text.extend(int);
-            text.push(b'.');
-            text.extend(frac);
-        }
-        _ => {
-            text.extend(b"0.");
-            for _ in digits.len()..fraction {
-                text.push(b'0');
-            }
-            text.extend(digits);
-        }
-    }
-    text.len
 }
 
-/// The decimal digits of `v`, without leading zeros ("0" for zero), inside `buffer`.
-fn ascii_u32(mut v: u32, buffer: &mut [u8; 10]) -> &[u8] {
-    let mut len = 0;
-    for slot in buffer.iter_mut().rev() {
-        *slot = b'0' + (v % 10) as u8;
-        v /= 10;
-        len += 1;
-        if v == 0 {
-            break;
-        }
+/// Number of decimal digits of `v < 10^9` (1 for zero), counted down from nine: the digits
+/// of a float are mostly many.
+fn nine_digit_len(v: u32) -> usize {
+    let mut len = 9;
+    let mut bound = 100_000_000;
+    while len > 1 && v < bound {
+        len -= 1;
+        bound /= 10;
     }
-    buffer.get(10 - len..).unwrap_or_default()
+    len
 }
 
-/// Appends bytes to the output array; positions past its end are dropped (none are reached:
-/// see [`F32_TEXT_MAX`]).
-struct Cursor<'a> {
-    out: &'a mut [u8; F32_TEXT_MAX],
-    len: usize,
+/// Writes ASCII zeros at `from..to` (`to <= F32_TEXT_MAX`), and possibly after `to` or from
+/// byte 40 on, eight at a time.
+fn fill_zeros(out: &mut [u8; F32_TEXT_MAX], from: usize, to: usize) {
+    let mut at = from;
+    while at < to {
+        store8(out, at.min(F32_TEXT_MAX - 8), ZERO_DIGITS);
+        at += 8;
+    }
 }
 
-impl Cursor<'_> {
-    fn push(&mut self, c: u8) {
-        if let Some(slot) = self.out.get_mut(self.len) {
-            *slot = c;
-            self.len += 1;
-        }
-    }
+/// Eight ASCII zeros in a word.
+const ZERO_DIGITS: u64 = u64::from_le_bytes([b'0'; 8]);
 
-    fn extend(&mut self, bytes: &[u8]) {
-        for &c in bytes {
-            self.push(c);
-        }
+/// The eight decimal digits of `v < 10^8`, zero-padded, as ASCII in a word's bytes (the
+/// first digit in the lowest byte). The digits are split into halves, quarters and single
+/// digits in all lanes at once, by multiplications that divide exactly in the lanes'
+/// ranges.
+fn eight_ascii(v: u32) -> u64 {
+    // Two lanes of 32 bits: the top and bottom four digits.
+    let x = u64::from(v / 10_000) | u64::from(v % 10_000) << 32;
+    // x / 100 in each lane: exact for lanes below 43699.
+    let high = ((x * 5243) >> 19) & 0x0000_007f_0000_007f;
+    let x = high | (x - high * 100) << 16;
+    // Four lanes of 16 bits below 100; x / 10 in each: exact below 179.
+    let high = ((x * 103) >> 10) & 0x000f_000f_000f_000f;
+    high | (x - high * 10) << 8 | ZERO_DIGITS
+}
+
+/// Stores the word's eight bytes, lowest first, at `at` in `out` (nothing if they do not
+/// fit, which the callers' bounds rule out).
+fn store8(out: &mut [u8; F32_TEXT_MAX], at: usize, word: u64) {
+    if let Some(slot) = out.get_mut(at..).and_then(|o| o.first_chunk_mut::<8>()) {
+        *slot = word.to_le_bytes();
+    }
+}
+
+/// Stores one byte at `at` in `out` (nothing past its end, which the callers rule out).
+fn put(out: &mut [u8; F32_TEXT_MAX], at: usize, byte: u8) {
+    if let Some(slot) = out.get_mut(at) {
+        *slot = byte;
     }
 }
