@@ -742,8 +742,8 @@ fn round_to_f32(v: Approx) -> (u32, bool) {
 ///
 /// The text is byte-identical to `format!("{}", value)`: `"-0"` for negative zero, integers
 /// without `".0"`, trailing zeros instead of an exponent (`1e30` prints 31 digits). Returns the
-/// number of bytes written to the start of `out`; NaN and infinities are
-/// [`NumberError::NotFinite`].
+/// length of the text at the start of `out`; the bytes after it may be overwritten too (the
+/// text is stored eight bytes at a time). NaN and infinities are [`NumberError::NotFinite`].
 pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, NumberError> {
     if !value.is_finite() {
         return Err(NumberError::NotFinite);
