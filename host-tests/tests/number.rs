@@ -3,8 +3,8 @@
 
 use proptest::prelude::*;
 use x30_panel::proto::xml::number::{
-    F32_TEXT_MAX, I64_TEXT_MAX, NumberError, parse_f32, parse_i64, parse_int, parse_int_prefix,
-    write_f32, write_i64,
+    F32_TEXT_MAX, I32_TEXT_MAX, NumberError, parse_f32, parse_i64, parse_int, parse_int_prefix,
+    write_f32, write_i32,
 };
 
 /// Our text for a finite float.
@@ -482,18 +482,18 @@ fn write_rejects_non_finite() {
 }
 
 /// Our text for an integer.
-fn int_text(v: i64) -> String {
-    let mut out = [0u8; I64_TEXT_MAX];
-    let len = write_i64(v, &mut out);
+fn int_text(v: i32) -> String {
+    let mut out = [0u8; I32_TEXT_MAX];
+    let len = write_i32(v, &mut out);
     String::from_utf8(out[..len].to_vec()).unwrap()
 }
 
 #[test]
 fn integer_edges() {
     for v in [
-        i64::MIN,
-        i64::MIN + 1,
-        i64::MAX,
+        i32::MIN,
+        i32::MIN + 1,
+        i32::MAX,
         0,
         -1,
         1,
@@ -504,9 +504,12 @@ fn integer_edges() {
         100,
     ] {
         assert_eq!(int_text(v), v.to_string());
+        assert_eq!(parse_i64(v.to_string().as_bytes()), Ok(v.into()));
+    }
+    assert_eq!(int_text(i32::MIN).len(), I32_TEXT_MAX);
+    for v in [i64::MIN, i64::MAX] {
         assert_eq!(parse_i64(v.to_string().as_bytes()), Ok(v));
     }
-    assert_eq!(int_text(i64::MIN).len(), I64_TEXT_MAX);
     assert_eq!(parse_i64(b"+5"), Ok(5));
     assert_eq!(parse_i64(b"-0"), Ok(0));
     assert_eq!(parse_i64(b"007"), Ok(7));
@@ -550,15 +553,30 @@ fn integer_edges() {
     );
 }
 
+/// Every integer of up to six digits, and every power of ten and its neighbours, is written
+/// as std writes it: the lengths where the text's layout changes.
+#[test]
+fn integers_print_as_std_at_every_length() {
+    let mut edges = vec![i32::MIN, i32::MIN + 1, i32::MAX];
+    for power in (0..10).map(|k| 10i32.pow(k)) {
+        for v in [power - 1, power, power + 1] {
+            edges.extend([v, -v]);
+        }
+    }
+    for v in (-1_000_000..=1_000_000).chain(edges) {
+        assert_eq!(int_text(v), v.to_string());
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(20_000))]
 
     #[test]
-    fn integers_round_trip(v in any::<i64>()) {
+    fn integers_round_trip(v in any::<i32>()) {
         let text = int_text(v);
         prop_assert_eq!(&text, &v.to_string());
-        prop_assert_eq!(parse_i64(text.as_bytes()), Ok(v));
-        prop_assert_eq!(parse_int::<i32>(text.as_bytes()).ok(), i32::try_from(v).ok());
+        prop_assert_eq!(parse_i64(text.as_bytes()), Ok(v.into()));
+        prop_assert_eq!(parse_int::<i32>(text.as_bytes()), Ok(v));
     }
 
     #[test]

@@ -160,3 +160,58 @@ fn zero_time_counts_from_the_document_epoch() {
         }
     );
 }
+
+/// Every value of every field is written as `format!` writes its last digits: four for the
+/// year, two for the others.
+#[test]
+fn encodes_every_field_value_as_its_last_digits() {
+    let text = |t: &Timestamp| {
+        let mut text = [0u8; TIME_TEXT_LEN];
+        t.encode(&mut text);
+        String::from_utf8(text.to_vec()).unwrap()
+    };
+    let expected = |t: &Timestamp| {
+        format!(
+            "{:04}-{:02}-{:02} {:02}:{:02}:{:02}",
+            t.year % 10_000,
+            t.month % 100,
+            t.day % 100,
+            t.hour % 100,
+            t.minute % 100,
+            t.second % 100
+        )
+    };
+    for year in 0..=u16::MAX {
+        let t = Timestamp {
+            year,
+            ..Timestamp::DOCUMENT_EPOCH
+        };
+        assert_eq!(text(&t), expected(&t));
+    }
+    for v in 0..=u8::MAX {
+        for t in [
+            Timestamp {
+                month: v,
+                ..Timestamp::ZERO
+            },
+            Timestamp {
+                day: v,
+                ..Timestamp::ZERO
+            },
+            Timestamp {
+                hour: v,
+                ..Timestamp::ZERO
+            },
+            Timestamp {
+                minute: v,
+                ..Timestamp::ZERO
+            },
+            Timestamp {
+                second: v,
+                ..Timestamp::ZERO
+            },
+        ] {
+            assert_eq!(text(&t), expected(&t));
+        }
+    }
+}

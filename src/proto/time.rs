@@ -56,7 +56,8 @@ impl Timestamp {
         second: 0,
     };
 
-    /// Writes the text form into `out`.
+    /// Writes the text form into `out`. A field too large for its place (the year has four
+    /// digits, the others two) is written with its last digits.
     pub fn encode(&self, out: &mut [u8; TIME_TEXT_LEN]) {
         let fields = [
             (0, 4, u32::from(self.year)),

@@ -192,9 +192,7 @@ fn write_values(
         match (item.kind, *value) {
             (_, None) => {}
             (Kind::Float, Some(bits)) => doc.float_item(item.name, f32::from_bits(bits))?,
-            (Kind::Int | Kind::Byte, Some(bits)) => {
-                doc.int_item(item.name, (bits as i32).into())?
-            }
+            (Kind::Int | Kind::Byte, Some(bits)) => doc.int_item(item.name, bits as i32)?,
         }
     }
     Ok(())

@@ -254,7 +254,7 @@ impl Request {
             Self::Light(light) => light.write_items(&mut doc)?,
             Self::Motion(motion) => match motion.value() {
                 MotionValue::Float(v) => doc.float_item("Value", v)?,
-                MotionValue::Int(v) => doc.int_item("Value", v.into())?,
+                MotionValue::Int(v) => doc.int_item("Value", v)?,
             },
             Self::Relocalize(pose) => pose.write_items(&mut doc)?,
             Self::Status

@@ -65,8 +65,8 @@ pub enum NumberError {
 /// or above `10^-45`, because the rounding interval of every `f32` is at least `1.4e-45` wide.
 pub const F32_TEXT_MAX: usize = 48;
 
-/// Longest text `write_i64` can produce.
-pub const I64_TEXT_MAX: usize = 20;
+/// Longest text `write_i32` can produce (`-2147483648`).
+pub const I32_TEXT_MAX: usize = 11;
 
 // ---------------------------------------------------------------------------------------------
 // Integers
@@ -128,33 +128,36 @@ pub fn parse_int<T: TryFrom<i64>>(text: &[u8]) -> Result<T, NumberError> {
     T::try_from(parse_i64(text)?).map_err(|_| NumberError::OutOfRange)
 }
 
-/// Writes an integer in decimal; returns bytes written.
-pub fn write_i64(value: i64, out: &mut [u8; I64_TEXT_MAX]) -> usize {
+/// Writes an integer in decimal; returns bytes written. The bytes after the text may be
+/// overwritten too (its last eight digits are stored as one word).
+pub fn write_i32(value: i32, out: &mut [u8; I32_TEXT_MAX]) -> usize {
     // Most items are codes and counts of one digit.
     if let Ok(digit @ 0..=9) = u8::try_from(value) {
         out[0] = b'0' + digit;
         return 1;
     }
     let negative = value < 0;
-    let mut magnitude = value.unsigned_abs();
-    let len = usize::from(negative) + decimal_len(magnitude);
-    // Digits come least significant first, so fill the text from its end.
-    for slot in out.iter_mut().take(len).skip(usize::from(negative)).rev() {
-        let quotient = div10(magnitude);
-        // The remainder is below 10.
-        *slot = b'0' + (magnitude - quotient * 10) as u8;
-        magnitude = quotient;
+    let mut at = usize::from(negative);
+    if negative {
+        out[0] = b'-';
     }
-    if negative && let Some(first) = out.first_mut() {
-        *first = b'-';
-    }
-    len
-}
-
-/// `v / 10` by multiplication: 64-bit division is a library call on the Cortex-M.
-fn div10(v: u64) -> u64 {
-    // ceil(2^67 / 10); exact for every u64 (the standard reciprocal for this divisor).
-    ((u128::from(v) * 0xcccc_cccc_cccc_cccd) >> 67) as u64
+    // At most ten digits: up to two above the last eight, then those eight made all at
+    // once and stored as a word, the text's digits at its top.
+    let magnitude = value.unsigned_abs();
+    let (high, low) = (magnitude / 100_000_000, magnitude % 100_000_000);
+    let low_len = if high == 0 {
+        decimal_len(low)
+    } else {
+        if high >= 10 {
+            put(out, at, b'0' + (high / 10) as u8);
+            at += 1;
+        }
+        put(out, at, b'0' + (high % 10) as u8);
+        at += 1;
+        8
+    };
+    store8(out, at, eight_ascii(low) >> (8 * (8 - low_len)));
+    at + low_len
 }
 
 /// Splits off one leading '+' or '-'; `Empty` for empty text.
@@ -173,13 +176,14 @@ fn digit(c: u8) -> Option<u8> {
     (d < 10).then_some(d)
 }
 
-/// Number of decimal digits of `n` (1 for zero), by multiplications only.
-fn decimal_len(n: u64) -> usize {
+/// Number of decimal digits of `n < 10^8` (1 for zero), counted up from one: integers are
+/// mostly short.
+fn decimal_len(n: u32) -> usize {
     let mut len = 1;
-    let mut bound: u64 = 10;
-    while len < 20 && n >= bound {
+    let mut bound = 10;
+    while len < 8 && n >= bound {
         len += 1;
-        bound = bound.saturating_mul(10);
+        bound *= 10;
     }
     len
 }
@@ -1004,7 +1008,9 @@ const ZERO_DIGITS: u64 = u64::from_le_bytes([b'0'; 8]);
 /// The eight decimal digits of `v < 10^8`, zero-padded, as ASCII in a word's bytes (the
 /// first digit in the lowest byte). The digits are split into halves, quarters and single
 /// digits in all lanes at once, by multiplications that divide exactly in the lanes'
-/// ranges.
+/// ranges. Kept out of line: both number writers use it, and a second copy would cost
+/// more flash than the call costs time.
+#[inline(never)]
 fn eight_ascii(v: u32) -> u64 {
     // Two lanes of 32 bits: the top and bottom four digits.
     let x = u64::from(v / 10_000) | u64::from(v % 10_000) << 32;
@@ -1018,14 +1024,14 @@ fn eight_ascii(v: u32) -> u64 {
 
 /// Stores the word's eight bytes, lowest first, at `at` in `out` (nothing if they do not
 /// fit, which the callers' bounds rule out).
-fn store8(out: &mut [u8; F32_TEXT_MAX], at: usize, word: u64) {
+fn store8<const N: usize>(out: &mut [u8; N], at: usize, word: u64) {
     if let Some(slot) = out.get_mut(at..).and_then(|o| o.first_chunk_mut::<8>()) {
         *slot = word.to_le_bytes();
     }
 }
 
 /// Stores one byte at `at` in `out` (nothing past its end, which the callers rule out).
-fn put(out: &mut [u8; F32_TEXT_MAX], at: usize, byte: u8) {
+fn put<const N: usize>(out: &mut [u8; N], at: usize, byte: u8) {
     if let Some(slot) = out.get_mut(at) {
         *slot = byte;
     }

@@ -15,7 +15,7 @@
 //! Every write either fits or fails with [`WriteError::BufferFull`]; nothing is ever
 //! truncated silently.
 
-use super::number::{self, F32_TEXT_MAX, I64_TEXT_MAX};
+use super::number::{self, F32_TEXT_MAX, I32_TEXT_MAX};
 use crate::proto::time::{TIME_TEXT_LEN, Timestamp};
 
 /// Why a document could not be written.
@@ -125,9 +125,9 @@ impl<'a> XmlWriter<'a> {
     }
 
     /// Writes `<name>value</name>` for an integer.
-    pub fn int_element(&mut self, name: &str, value: i64) -> Result<(), WriteError> {
-        let mut text = [0; I64_TEXT_MAX];
-        let n = number::write_i64(value, &mut text);
+    pub fn int_element(&mut self, name: &str, value: i32) -> Result<(), WriteError> {
+        let mut text = [0; I32_TEXT_MAX];
+        let n = number::write_i32(value, &mut text);
         self.element(name, text.get(..n).unwrap_or_default())
     }
 
@@ -204,16 +204,28 @@ impl Cursor<'_> {
     }
 }
 
-/// [`number::write_f32`], kept out of line: number items call it from two places.
-#[inline(never)]
-fn format_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, number::NumberError> {
-    number::write_f32(value, out)
+/// The value of a number item.
+#[derive(Clone, Copy)]
+enum Number {
+    Int(i32),
+    Float(f32),
 }
 
-/// [`number::write_i64`], kept out of line: number items call it from two places.
-#[inline(never)]
-fn format_i64(value: i64, out: &mut [u8; I64_TEXT_MAX]) -> usize {
-    number::write_i64(value, out)
+impl Number {
+    /// Writes the number's text at the start of `out` and returns its length; the bytes
+    /// after it may be overwritten. `item` names the item in the error for a float with no
+    /// text form.
+    #[inline(always)]
+    fn format(self, item: &'static str, out: &mut [u8; NUMBER_MAX]) -> Result<usize, WriteError> {
+        match self {
+            Self::Int(value) => Ok(out
+                .first_chunk_mut::<I32_TEXT_MAX>()
+                .map_or(0, |out| number::write_i32(value, out))),
+            Self::Float(value) => {
+                number::write_f32(value, out).map_err(|_| WriteError::NotFinite { item })
+            }
+        }
+    }
 }
 
 /// Copies the `N` bytes of `from` at `at` to the same place in `to`.
@@ -239,9 +251,8 @@ const LINE_WINDOW: usize = 64 + NUMBER_MAX;
 
 /// Writes the indentation and tags of an item line around a number of `n` bytes already
 /// formatted in place, and returns the line's length. The name is at most [`NAME_MAX`] and
-/// `n` at most [`NUMBER_MAX`] bytes, so every piece lands inside the window. The same for
-/// every kind of number, so kept out of line.
-#[inline(never)]
+/// `n` at most [`NUMBER_MAX`] bytes, so every piece lands inside the window.
+#[inline(always)]
 fn item_tags(window: &mut [u8; LINE_WINDOW], name: &[u8], n: usize) -> usize {
     let name_len = name.len().min(NAME_MAX);
     let end = ITEM_INDENT.len() + name_len + 2 + n.min(NUMBER_MAX);
@@ -290,9 +301,9 @@ impl<'a> DocumentWriter<'a> {
     ) -> Result<Self, WriteError> {
         // The header is the same text around three values: format those, check the length
         // once, then copy constant pieces (which compile to plain stores).
-        let (mut type_text, mut command_text) = ([0; I64_TEXT_MAX], [0; I64_TEXT_MAX]);
-        let type_len = number::write_i64(message_type.into(), &mut type_text);
-        let command_len = number::write_i64(command.into(), &mut command_text);
+        let (mut type_text, mut command_text) = ([0; I32_TEXT_MAX], [0; I32_TEXT_MAX]);
+        let type_len = number::write_i32(message_type, &mut type_text);
+        let command_len = number::write_i32(command, &mut command_text);
         let type_text = prefix(&type_text, type_len);
         let command_text = prefix(&command_text, command_len);
         let mut time_text = [0; TIME_TEXT_LEN];
@@ -325,54 +336,45 @@ impl<'a> DocumentWriter<'a> {
     }
 
     /// Writes an integer item.
-    pub fn int_item(&mut self, name: &str, value: i64) -> Result<(), WriteError> {
-        self.number_item(name, |text: &mut [u8; I64_TEXT_MAX]| {
-            Ok(format_i64(value, text))
-        })
+    pub fn int_item(&mut self, name: &'static str, value: i32) -> Result<(), WriteError> {
+        self.number_item(name, Number::Int(value))
     }
 
     /// Writes a float item.
     pub fn float_item(&mut self, name: &'static str, value: f32) -> Result<(), WriteError> {
-        self.number_item(name, |text: &mut [u8; F32_TEXT_MAX]| {
-            format_f32(value, text).map_err(|_| WriteError::NotFinite { item: name })
-        })
+        self.number_item(name, Number::Float(value))
     }
 
-    /// Writes one item line whose value is a number that `format` writes into an array of
-    /// its longest text. Where the buffer has room for the longest such line, the line is
-    /// written into a fixed-size window of it: the tags are stores at offsets checked once,
-    /// and the number is formatted in place, between them, never copied. Near the buffer's
-    /// end (or for a name longer than any item's) it is formatted aside and copied only if
-    /// it fits.
-    #[inline]
-    fn number_item<const N: usize>(
-        &mut self,
-        name: &str,
-        format: impl Fn(&mut [u8; N]) -> Result<usize, WriteError>,
-    ) -> Result<(), WriteError> {
+    /// Writes one item line whose value is a number. Where the buffer has room for the
+    /// longest such line, the line is written into a fixed-size window of it: the tags are
+    /// stores at offsets checked once, and the number is formatted in place, between them,
+    /// never copied. Near the buffer's end (or for a name longer than any item's) it is
+    /// formatted aside and copied only if it fits. One copy serves every kind of number,
+    /// with the formatting and the tags inlined: calls between small functions cost more
+    /// than what they do at an item per call.
+    #[inline(never)]
+    fn number_item(&mut self, name: &'static str, value: Number) -> Result<(), WriteError> {
         self.open_items()?;
-        let name = name.as_bytes();
+        let bytes = name.as_bytes();
         let out = self.w.buf.get_mut(self.w.len..).unwrap_or_default();
-        let window = out.first_chunk_mut::<LINE_WINDOW>();
-        let start = ITEM_INDENT.len() + name.len() + 2;
-        match window.filter(|_| name.len() <= NAME_MAX && N <= NUMBER_MAX) {
-            Some(window) => {
-                let text = window
-                    .get_mut(start..)
-                    .and_then(|rest| rest.first_chunk_mut::<N>());
-                let n = match text {
-                    Some(text) => format(text)?,
-                    None => 0,
-                };
-                self.w.len += item_tags(window, name, n);
-                Ok(())
-            }
-            None => {
-                let mut text = [0; N];
-                let n = format(&mut text)?;
-                self.number_line(name, text.get(..n).unwrap_or_default())
-            }
-        }
+        let window = out
+            .first_chunk_mut::<LINE_WINDOW>()
+            .filter(|_| bytes.len() <= NAME_MAX);
+        let Some(window) = window else {
+            let mut text = [0; NUMBER_MAX];
+            let n = value.format(name, &mut text)?;
+            return self.number_line(bytes, prefix(&text, n));
+        };
+        let start = ITEM_INDENT.len() + bytes.len() + 2;
+        let text = window
+            .get_mut(start..)
+            .and_then(|rest| rest.first_chunk_mut::<NUMBER_MAX>());
+        let n = match text {
+            Some(text) => value.format(name, text)?,
+            None => 0,
+        };
+        self.w.len += item_tags(window, bytes, n);
+        Ok(())
     }
 
     /// Writes an item line whose number was formatted aside, near the buffer's end.
