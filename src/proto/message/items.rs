@@ -11,7 +11,7 @@ use super::DecodeError;
 use crate::proto::codes::Code;
 use crate::proto::xml::Items;
 use crate::proto::xml::number;
-use crate::proto::xml::writer::{DocumentWriter, WriteError};
+use crate::proto::xml::writer::{DocumentWriter, Number, WriteError};
 
 /// What an item holds on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -189,13 +189,31 @@ fn write_values(
     values: &[Raw],
 ) -> Result<(), WriteError> {
     for (item, value) in spec.iter().zip(values) {
-        match (item.kind, *value) {
-            (_, None) => {}
-            (Kind::Float, Some(bits)) => doc.float_item(item.name, f32::from_bits(bits))?,
-            (Kind::Int | Kind::Byte, Some(bits)) => doc.int_item(item.name, bits as i32)?,
-        }
+        let Some(bits) = *value else {
+            continue;
+        };
+        let number = match item.kind {
+            Kind::Float => Number::Float(f32::from_bits(bits)),
+            Kind::Int | Kind::Byte => Number::Int(bits as i32),
+        };
+        doc.number_item(item.name, number)?;
     }
     Ok(())
+}
+
+/// Writes one item, as a table of one: the item line is written in one place only.
+pub(crate) fn write_item(
+    doc: &mut DocumentWriter<'_>,
+    name: &'static str,
+    kind: Kind,
+    bits: u32,
+) -> Result<(), WriteError> {
+    let spec = ItemSpec {
+        name,
+        kind,
+        required: true,
+    };
+    write_values(doc, &[spec], &[Some(bits)])
 }
 
 /// Reads a block's items into `values`, by position in `spec`; unknown items are skipped.

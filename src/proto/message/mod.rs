@@ -24,7 +24,7 @@ use crate::proto::xml::number::NumberError;
 use crate::proto::xml::reader::{Tokenizer, XmlError};
 use crate::proto::xml::writer::{DocumentWriter, WriteError};
 use crate::proto::xml::{Envelope, Items, StructureError, read_tokens};
-use items::{ItemSet, ItemSpec, Kind, item_set, parse_text};
+use items::{ItemSet, ItemSpec, Kind, item_set, parse_text, write_item};
 
 /// Longest body a valid request encodes to: a 1003 request with [`MAX_NAV_POINTS`]
 /// waypoints whose every number has its longest text. A receiver that accepts bodies this
@@ -253,8 +253,8 @@ impl Request {
             }
             Self::Light(light) => light.write_items(&mut doc)?,
             Self::Motion(motion) => match motion.value() {
-                MotionValue::Float(v) => doc.float_item("Value", v)?,
-                MotionValue::Int(v) => doc.int_item("Value", v)?,
+                MotionValue::Float(v) => write_item(&mut doc, "Value", Kind::Float, v.to_bits())?,
+                MotionValue::Int(v) => write_item(&mut doc, "Value", Kind::Int, v as u32)?,
             },
             Self::Relocalize(pose) => pose.write_items(&mut doc)?,
             Self::Status
