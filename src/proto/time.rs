@@ -3,6 +3,8 @@
 //! The robot does not act on it, but sends it and expects it. A panel has no battery-backed
 //! clock, so it learns the robot's time from answers and counts on from there.
 
+use crate::proto::xml::number::two_digit_lanes;
+
 /// Length of the text form `YYYY-MM-DD HH:MM:SS`.
 pub const TIME_TEXT_LEN: usize = 19;
 
@@ -59,22 +61,27 @@ impl Timestamp {
     /// Writes the text form into `out`. A field too large for its place (the year has four
     /// digits, the others two) is written with its last digits.
     pub fn encode(&self, out: &mut [u8; TIME_TEXT_LEN]) {
-        let fields = [
-            (0, 4, u32::from(self.year)),
-            (5, 2, u32::from(self.month)),
-            (8, 2, u32::from(self.day)),
-            (11, 2, u32::from(self.hour)),
-            (14, 2, u32::from(self.minute)),
-            (17, 2, u32::from(self.second)),
-        ];
-        *out = *b"0000-00-00 00:00:00";
-        for (at, width, value) in fields {
-            let mut value = value;
-            for slot in out.iter_mut().skip(at).take(width).rev() {
-                *slot = b'0' + (value % 10) as u8;
-                value /= 10;
-            }
-        }
+        // The last two digits of each field in a 16-bit lane, made into ASCII all at once.
+        let lanes = |a: u16, b: u16, c: u16, d: u16| {
+            let lane = |v: u16, at: u32| u64::from(v % 100) << at;
+            lane(a, 0) | lane(b, 16) | lane(c, 32) | lane(d, 48)
+        };
+        let (month, day) = (self.month.into(), self.day.into());
+        let (hour, minute, second) = (self.hour.into(), self.minute.into(), self.second.into());
+        // `YYYYMMDD` and `hhmmss`, first character in the lowest byte.
+        let date = two_digit_lanes(lanes(self.year / 100, self.year, month, day));
+        let clock = two_digit_lanes(lanes(hour, minute, second, 0));
+        let pair = |word: u64, at: u32| word >> at & 0xffff;
+        let byte = |b: u8, at: u32| u64::from(b) << at;
+        // `YYYY-MM-`, then `DD hh:mm`, then `:ss`.
+        let first = pair(date, 0) | pair(date, 16) << 16 | byte(b'-', 32);
+        let first = first | pair(date, 32) << 40 | byte(b'-', 56);
+        let second = pair(date, 48) | byte(b' ', 16) | pair(clock, 0) << 24;
+        let second = second | byte(b':', 40) | pair(clock, 16) << 48;
+        let [s0, s1, ..] = pair(clock, 32).to_le_bytes();
+        let [a, b, c, d, e, f, g, h] = first.to_le_bytes();
+        let [i, j, k, l, m, n, o, p] = second.to_le_bytes();
+        *out = [a, b, c, d, e, f, g, h, i, j, k, l, m, n, o, p, b':', s0, s1];
     }
 
     /// Parses `YYYY-MM-DD HH:MM:SS`.

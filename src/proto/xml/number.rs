@@ -1017,9 +1017,15 @@ fn eight_ascii(v: u32) -> u64 {
     // x / 100 in each lane: exact for lanes below 43699.
     let high = ((x * 5243) >> 19) & 0x0000_007f_0000_007f;
     let x = high | (x - high * 100) << 16;
-    // Four lanes of 16 bits below 100; x / 10 in each: exact below 179.
-    let high = ((x * 103) >> 10) & 0x000f_000f_000f_000f;
-    high | (x - high * 10) << 8 | ZERO_DIGITS
+    two_digit_lanes(x)
+}
+
+/// The ASCII digits of four numbers below 100, one in each 16-bit lane of `x`: the tens in
+/// the lane's low byte, the ones in its high byte. Dividing by ten is a multiplication, exact
+/// in every lane below 179.
+pub(crate) fn two_digit_lanes(x: u64) -> u64 {
+    let tens = ((x * 103) >> 10) & 0x000f_000f_000f_000f;
+    tens | (x - tens * 10) << 8 | ZERO_DIGITS
 }
 
 /// Stores the word's eight bytes, lowest first, at `at` in `out` (nothing if they do not

@@ -278,9 +278,6 @@ fn escape(reserved: u8) -> &'static [u8] {
     }
 }
 
-const ROOT: &str = "PatrolDevice";
-const ITEMS: &str = "Items";
-const CHILD_INDENT: &[u8] = b"  ";
 const ITEM_INDENT: &[u8] = b"    ";
 
 /// Writes one `<PatrolDevice>` document: header elements, then items, in the document's layout.
@@ -392,8 +389,7 @@ impl<'a> DocumentWriter<'a> {
     /// Opens the `<Items>` block if no block is open.
     fn open_items(&mut self) -> Result<(), WriteError> {
         if !self.items_open {
-            self.w.raw(CHILD_INDENT)?;
-            self.w.raw(b"<Items>\n")?;
+            self.w.raw(b"  <Items>\n")?;
             self.items_open = true;
         }
         Ok(())
@@ -403,9 +399,7 @@ impl<'a> DocumentWriter<'a> {
     /// request carries one block per waypoint).
     pub fn end_items_block(&mut self) -> Result<(), WriteError> {
         if self.items_open {
-            self.w.raw(CHILD_INDENT)?;
-            self.w.end(ITEMS)?;
-            self.w.raw(b"\n")?;
+            self.w.raw(b"  </Items>\n")?;
             self.items_open = false;
             self.blocks += 1;
         }
@@ -416,11 +410,9 @@ impl<'a> DocumentWriter<'a> {
     pub fn finish(mut self) -> Result<usize, WriteError> {
         self.end_items_block()?;
         if self.blocks == 0 {
-            self.w.raw(CHILD_INDENT)?;
-            self.w.raw(b"<Items/>\n")?;
+            self.w.raw(b"  <Items/>\n")?;
         }
-        self.w.end(ROOT)?;
-        self.w.raw(b"\n")?;
+        self.w.raw(b"</PatrolDevice>\n")?;
         Ok(self.w.len())
     }
 }
