@@ -281,7 +281,7 @@ impl Request {
     fn decode_from(tokens: Tokenizer<'_>) -> Result<Decoded<Self>, DecodeError> {
         let mut message = None;
         let mut points = heapless::Vec::<NavPoint, MAX_NAV_POINTS>::new();
-        let (envelope, blocks) = read_tokens(tokens, |envelope, items| {
+        let (envelope, blocks) = read_tokens(tokens, &mut |envelope, items| {
             match MessageType::from_raw(envelope.message_type) {
                 // Each block is one waypoint; read_document allows no more blocks than fit.
                 MessageType::NavTask => points.push(NavPoint::read_items(items)?).map_err(|_| {
@@ -390,7 +390,7 @@ impl Response {
 
     fn decode_from(tokens: Tokenizer<'_>) -> Result<Decoded<Self>, DecodeError> {
         let mut message = None;
-        let (envelope, blocks) = read_tokens(tokens, |envelope, items| {
+        let (envelope, blocks) = read_tokens(tokens, &mut |envelope, items| {
             if message.is_none() {
                 message = Some(Self::read_items(envelope, items)?);
             }
@@ -409,6 +409,9 @@ impl Response {
     }
 
     /// Reads the items of an answer of the envelope's Type.
+    // Out of line: inlined into the items handler that the document reader calls through a
+    // pointer, it made the 1002 decode a few percent slower (measured).
+    #[inline(never)]
     fn read_items(envelope: &Envelope, items: &mut Items<'_>) -> Result<Self, DecodeError> {
         Ok(match MessageType::from_raw(envelope.message_type) {
             MessageType::Status => Self::Status(ItemSet::read_items(items)?),

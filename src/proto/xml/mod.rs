@@ -74,7 +74,7 @@ pub fn read_document<'a, E>(
 where
     E: From<StructureError>,
 {
-    read_tokens(Tokenizer::document(input), on_items)
+    read_tokens(Tokenizer::document(input), &mut { on_items })
 }
 
 /// [`read_document`] without the shortcut for the usual layout
@@ -88,14 +88,17 @@ pub fn read_document_general<'a, E>(
 where
     E: From<StructureError>,
 {
-    read_tokens(Tokenizer::document(input).without_shortcut(), on_items)
+    read_tokens(Tokenizer::document(input).without_shortcut(), &mut {
+        on_items
+    })
 }
 
 /// [`read_document`] from a tokenizer made by [`Tokenizer::document`], with or without its
-/// shortcut.
+/// shortcut. `on_items` is called through a pointer (once per block), so that one copy of
+/// the document reader serves requests and responses alike.
 pub(crate) fn read_tokens<'a, E>(
     mut tokens: Tokenizer<'a>,
-    mut on_items: impl FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
+    on_items: &mut dyn FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
 ) -> Result<(Envelope, usize), E>
 where
     E: From<StructureError>,
