@@ -181,7 +181,7 @@ impl Cursor<'_> {
         self.put(newline);
     }
 
-    /// [`Cursor::put`] for an element name: 4 to 16 bytes are copied as two overlapping
+    /// [`Cursor::put`] for an element name: 1 to 16 bytes are copied as two overlapping
     /// fixed-size pieces (a few loads and stores) rather than by a call to `memcpy`, which
     /// costs more than such a short copy.
     #[inline(always)]
@@ -197,6 +197,9 @@ impl Cursor<'_> {
         } else if (4..8).contains(&n) {
             copy_fixed::<4>(head, name, 0);
             copy_fixed::<4>(head, name, n - 4);
+        } else if (1..4).contains(&n) {
+            copy_fixed::<1>(head, name, 0);
+            copy_fixed::<2>(head, name, n.saturating_sub(2));
         } else {
             head.copy_from_slice(name);
         }
