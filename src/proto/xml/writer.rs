@@ -198,6 +198,7 @@ impl Cursor<'_> {
             copy_fixed::<4>(head, name, 0);
             copy_fixed::<4>(head, name, n - 4);
         } else if (1..4).contains(&n) {
+            // The first byte, then the last two (which a one-byte name does not have).
             copy_fixed::<1>(head, name, 0);
             copy_fixed::<2>(head, name, n.saturating_sub(2));
         } else {
