@@ -753,12 +753,12 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
         return Err(NumberError::NotFinite);
     }
     let bits = value.to_bits() & !(1 << 31);
-    let (digits, exponent) = if bits == 0 {
-        (0, 0)
+    let (digits, exponent, len) = if bits == 0 {
+        (0, 0, 1)
     } else {
         Window::new(bits).pick()
     };
-    Ok(render(value.is_sign_negative(), digits, exponent, out))
+    Ok(render(value.is_sign_negative(), digits, exponent, len, out))
 }
 
 /// How close (in 32.32 units: `2^-16`) an approximate position may come to an integer or a tie
@@ -816,16 +816,26 @@ impl Window {
             low: 0,
             high: 0,
         };
-        window.low = window.end(y - below, true);
-        window.high = window.end(y + above, false);
+        if exact {
+            // Exact ends belong to the interval when m is even (the reader rounds ties to
+            // even): an odd m moves each end one 2^-32 unit inwards, and then both are
+            // inclusive, so the integers inside follow by rounding up and down.
+            let odd = u64::from(x.m % 2);
+            window.low = ((y - below + odd + 0xffff_ffff) >> 32) as u32;
+            window.high = ((y + above - odd) >> 32) as u32;
+        } else {
+            window.low = window.end(y - below, true);
+            window.high = window.end(y + above, false);
+        }
         window
     }
 
-    /// The first (`lower`) or last integer inside the interval that ends at `end`.
+    /// The first (`lower`) or last integer inside the interval that ends near `end`, for an
+    /// approximate window.
     fn end(&self, end: u64, lower: bool) -> u32 {
         let floor = (end >> 32) as u32;
         let fraction = end as u32;
-        let margin = if self.exact { 0 } else { TIE_MARGIN as u32 };
+        let margin = TIE_MARGIN as u32;
         if fraction > margin && fraction.wrapping_neg() > margin {
             // Clearly between two integers.
             return if lower {
@@ -839,13 +849,7 @@ impl Window {
         } else {
             floor.saturating_add(1)
         };
-        // Ends belong to the interval when m is even (the reader rounds ties to even).
-        let inside = if self.exact {
-            self.x.m.is_multiple_of(2)
-        } else {
-            self.reads_back(nearest)
-        };
-        match (lower, inside) {
+        match (lower, self.reads_back(nearest)) {
             (_, true) => nearest,
             (true, false) => nearest.saturating_add(1),
             (false, false) => nearest.saturating_sub(1),
@@ -858,8 +862,8 @@ impl Window {
     }
 
     /// The shortest integer in the window, nearest to `y`, ties to the larger one; returned as
-    /// digits and decimal exponent.
-    fn pick(&self) -> (u32, i32) {
+    /// digits, decimal exponent and number of digits.
+    fn pick(&self) -> (u32, i32, usize) {
         // The largest power of ten with a multiple inside the window: the window holds a
         // multiple of 10^k exactly when high/10^k > (low-1)/10^k. Dividing by the constant
         // 10 compiles to a multiplication; a division by a variable power would not, so y's
@@ -884,7 +888,14 @@ impl Window {
             (true, _) => quotient,
             _ => quotient + 1,
         };
-        (chosen, zeros - self.scale)
+        // `y` has nine digits, and so do the window's integers below 10^9; one of them with
+        // `zeros` trailing zeros has `9 - zeros` more. 10^9 is a multiple of every step, so
+        // with it inside the loop ends at `zeros = 9`, choosing 1.
+        (
+            chosen,
+            zeros - self.scale,
+            9usize.saturating_sub(zeros as usize).max(1),
+        )
     }
 
     /// Whether `y >= down + step/2`.
@@ -918,26 +929,23 @@ fn shl(v: u64, n: u32) -> Option<u64> {
     (n < v.leading_zeros()).then(|| v << n)
 }
 
-/// Writes `[-]digits·10^exponent` the way `{}` does, never with an exponent, for
-/// `digits <= 10^9`.
+/// Writes `[-]digits·10^exponent` the way `{}` does, never with an exponent, for `digits`
+/// of `len` (at most nine) digits.
 ///
 /// The digits are made all at once ([`eight_ascii`]) and the text is written with 8-byte
 /// stores, runs of zeros included; bytes stored past the text's end are left for the
 /// caller to ignore. No store reaches past `out`'s end: the text's last byte is at most at
 /// 47, and stores that would pass 48 are moved back over bytes that are zeros anyway.
-fn render(negative: bool, digits: u32, exponent: i32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
-    // 10^9, the only ten-digit number the window yields, is 10^8 one place up.
-    let (digits, exponent) = if digits >= 1_000_000_000 {
-        (digits / 10, exponent + 1)
-    } else {
-        (digits, exponent)
-    };
+fn render(
+    negative: bool,
+    digits: u32,
+    exponent: i32,
+    len: usize,
+    out: &mut [u8; F32_TEXT_MAX],
+) -> usize {
     let start = usize::from(negative);
     // Overwritten by what follows unless the number is negative.
     put(out, 0, b'-');
-    // Found by comparisons rather than from the digits: the branches are predicted, so the
-    // stores below need not wait for the digits to know where they go.
-    let len = nine_digit_len(digits);
     // Where the point goes, in digits from the first: at or past the last for an integer,
     // at or before the first for a number below one.
     let point = len as i32 + exponent;
@@ -978,18 +986,6 @@ fn render(negative: bool, digits: u32, exponent: i32, out: &mut [u8; F32_TEXT_MA
         }
         _ => end,
     }
-}
-
-/// Number of decimal digits of `v < 10^9` (1 for zero), counted down from nine: the digits
-/// of a float are mostly many.
-fn nine_digit_len(v: u32) -> usize {
-    let mut len = 9;
-    let mut bound = 100_000_000;
-    while len > 1 && v < bound {
-        len -= 1;
-        bound /= 10;
-    }
-    len
 }
 
 /// Writes ASCII zeros at `from..to` (`to <= F32_TEXT_MAX`), and possibly after `to` or from
