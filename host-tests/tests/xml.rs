@@ -3,7 +3,6 @@
 
 use x30_panel::proto::message::{DecodeError, Request, Response};
 use x30_panel::proto::xml::reader::{MAX_DEPTH, Token, Tokenizer, XmlErrorKind};
-use x30_panel::proto::xml::writer::{WriteError, XmlWriter};
 use x30_panel::proto::xml::{StructureError, read_document};
 
 const BODY: &str = "<PatrolDevice><Type>2002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><ObsState>1</ObsState></Items></PatrolDevice>";
@@ -296,18 +295,4 @@ fn tokenizer_yields_the_structure() {
             Token::End(b"a"),
         ]
     );
-}
-
-#[test]
-fn writer_escapes_text_and_never_truncates() {
-    let mut buf = [0u8; 64];
-    let mut w = XmlWriter::new(&mut buf);
-    w.text("a<b & 'c' > \"d\"").unwrap();
-    let n = w.len();
-    assert_eq!(&buf[..n], b"a&lt;b &amp; &apos;c&apos; &gt; &quot;d&quot;");
-    let mut small = [0u8; 5];
-    let mut w = XmlWriter::new(&mut small);
-    assert_eq!(w.text("a&b"), Err(WriteError::BufferFull));
-    let mut w = XmlWriter::new(&mut small);
-    assert_eq!(w.int_element("Value", 1), Err(WriteError::BufferFull));
 }

@@ -34,29 +34,14 @@ pub enum WriteError {
 
 /// Appends bytes to the caller's buffer, failing rather than truncating.
 #[derive(Debug)]
-pub struct XmlWriter<'a> {
+struct XmlWriter<'a> {
     buf: &'a mut [u8],
     len: usize,
 }
 
-impl<'a> XmlWriter<'a> {
-    /// A writer that starts at the beginning of `buf`.
-    pub fn new(buf: &'a mut [u8]) -> Self {
-        Self { buf, len: 0 }
-    }
-
-    /// Bytes written so far.
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    /// Whether nothing has been written yet.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
+impl XmlWriter<'_> {
     /// Appends bytes as they are (markup the caller knows to be well formed).
-    pub fn raw(&mut self, bytes: &[u8]) -> Result<(), WriteError> {
+    fn raw(&mut self, bytes: &[u8]) -> Result<(), WriteError> {
         let end = self.len + bytes.len();
         self.buf
             .get_mut(self.len..end)
@@ -66,84 +51,19 @@ impl<'a> XmlWriter<'a> {
         Ok(())
     }
 
-    /// Appends character data, escaping the five characters XML reserves.
-    pub fn text(&mut self, text: &str) -> Result<(), WriteError> {
-        for chunk in text.split_inclusive(['&', '<', '>', '"', '\'']) {
-            let (plain, reserved) = match chunk.as_bytes().split_last() {
-                Some((&last, rest)) if b"&<>\"'".contains(&last) => (rest, Some(last)),
-                _ => (chunk.as_bytes(), None),
-            };
-            self.raw(plain)?;
-            if let Some(reserved) = reserved {
-                self.raw(escape(reserved))?;
-            }
-        }
-        Ok(())
-    }
-
-    /// Writes `<name>`.
-    pub fn start(&mut self, name: &str) -> Result<(), WriteError> {
-        self.raw(b"<")?;
-        self.raw(name.as_bytes())?;
-        self.raw(b">")
-    }
-
-    /// Writes `</name>`.
-    pub fn end(&mut self, name: &str) -> Result<(), WriteError> {
-        self.raw(b"</")?;
-        self.raw(name.as_bytes())?;
-        self.raw(b">")
-    }
-
-    /// Writes `<name>value</name>` with `value` already formatted.
-    fn element(&mut self, name: &str, value: &[u8]) -> Result<(), WriteError> {
-        self.line(b"", name.as_bytes(), value, b"")
-    }
-
-    /// Writes `{indent}<name>value</name>{newline}` with one bounds check: an item line is
-    /// the unit of almost every document, and many tiny checked copies cost more than the
-    /// text itself.
-    #[inline]
-    fn line(
-        &mut self,
-        indent: &[u8],
-        name: &[u8],
-        value: &[u8],
-        newline: &[u8],
-    ) -> Result<(), WriteError> {
-        let total = indent.len() + 2 * name.len() + value.len() + newline.len() + 5;
+    /// Writes an item line, `    <name>value</name>` and a newline, with one bounds check.
+    fn item_line(&mut self, name: &[u8], value: &[u8]) -> Result<(), WriteError> {
+        let total = ITEM_INDENT.len() + 2 * name.len() + value.len() + 6;
         let out = self
             .buf
             .get_mut(self.len..self.len + total)
             .ok_or(WriteError::BufferFull)?;
         let mut out = Cursor(out);
-        out.open_tag(indent, name, Cursor::put);
+        out.open_tag(ITEM_INDENT, name, Cursor::put);
         out.put(value);
-        out.close_tag(name, newline, Cursor::put);
+        out.close_tag(name, b"\n", Cursor::put);
         self.len += total;
         Ok(())
-    }
-
-    /// Writes `<name>value</name>` for an integer.
-    pub fn int_element(&mut self, name: &str, value: i32) -> Result<(), WriteError> {
-        let mut text = [0; I32_TEXT_MAX];
-        let n = number::write_i32(value, &mut text);
-        self.element(name, text.get(..n).unwrap_or_default())
-    }
-
-    /// Writes `<name>value</name>` for a float, in its shortest exact form.
-    pub fn float_element(&mut self, name: &'static str, value: f32) -> Result<(), WriteError> {
-        let mut text = [0; F32_TEXT_MAX];
-        let n = number::write_f32(value, &mut text)
-            .map_err(|_| WriteError::NotFinite { item: name })?;
-        self.element(name, text.get(..n).unwrap_or_default())
-    }
-
-    /// Writes `<name>YYYY-MM-DD HH:MM:SS</name>`.
-    pub fn time_element(&mut self, name: &str, time: &Timestamp) -> Result<(), WriteError> {
-        let mut text = [0; TIME_TEXT_LEN];
-        time.encode(&mut text);
-        self.element(name, &text)
     }
 }
 
@@ -272,16 +192,6 @@ fn prefix(text: &[u8], n: usize) -> &[u8] {
     text.get(..n).unwrap_or_default()
 }
 
-fn escape(reserved: u8) -> &'static [u8] {
-    match reserved {
-        b'&' => b"&amp;",
-        b'<' => b"&lt;",
-        b'>' => b"&gt;",
-        b'"' => b"&quot;",
-        _ => b"&apos;",
-    }
-}
-
 const ITEM_INDENT: &[u8] = b"    ";
 
 /// Writes one `<PatrolDevice>` document: header elements, then items, in the document's layout.
@@ -387,7 +297,7 @@ impl<'a> DocumentWriter<'a> {
     /// Writes an item line whose number was formatted aside, near the buffer's end.
     #[inline(never)]
     fn number_line(&mut self, name: &[u8], text: &[u8]) -> Result<(), WriteError> {
-        self.w.line(ITEM_INDENT, name, text, b"\n")
+        self.w.item_line(name, text)
     }
 
     /// Opens the `<Items>` block if no block is open.
@@ -417,6 +327,6 @@ impl<'a> DocumentWriter<'a> {
             self.w.raw(b"  <Items/>\n")?;
         }
         self.w.raw(b"</PatrolDevice>\n")?;
-        Ok(self.w.len())
+        Ok(self.w.len)
     }
 }
