@@ -177,7 +177,7 @@ impl<'a> Tokenizer<'a> {
         } else {
             run(tag, NAME_BYTE)
         };
-        Some((self.simple_rest(at, tag, name_len)?, expected))
+        Some((self.simple_rest_inline(at, tag, name_len)?, expected))
     }
 
     /// [`Tokenizer::simple_element_expecting`] for the expected element `name` whose text
@@ -309,6 +309,19 @@ impl<'a> Tokenizer<'a> {
 
     /// The rest of a simple element whose name (`name_len` bytes of `tag`) has been found.
     fn simple_rest(&self, at: usize, tag: &'a [u8], name_len: usize) -> Option<SimpleElement<'a>> {
+        self.simple_rest_inline(at, tag, name_len)
+    }
+
+    /// [`Tokenizer::simple_rest`], inlined where an item its table expects is read (a
+    /// float's line, most of an answer): the 1002 decode measured 3 % faster for 176 bytes.
+    /// Inlined everywhere, it made the 1003 decode slower.
+    #[inline(always)]
+    fn simple_rest_inline(
+        &self,
+        at: usize,
+        tag: &'a [u8],
+        name_len: usize,
+    ) -> Option<SimpleElement<'a>> {
         let (name, after) = tag.split_at_checked(name_len)?;
         let content = after.strip_prefix(b">").filter(|_| !name.is_empty())?;
         let (text, after) = content.split_at_checked(text_len(content)?)?;
