@@ -77,6 +77,51 @@ fn document_starts_read_alike_by_both_paths() {
     assert_obstacle(&format!("<?xml?>\n<PatrolDevice>{body}"));
 }
 
+/// The shortcut for the header lines real documents write (`Type`, `Command`, `Time`, in
+/// that order, each value read in the pass that finds its end) gives exactly what the
+/// general path gives, for the lines it takes and for the ones it must leave to the
+/// general path: whitespace around a value, a sign, a value that does not parse or does
+/// not fit, a time one byte too short or too long, another order, a repeated element, a
+/// name in other case.
+#[test]
+fn header_lines_read_alike_by_both_paths() {
+    let usual = [
+        "<Type>2002</Type>",
+        "<Command>1</Command>",
+        "<Time>2023-01-01 00:00:00</Time>",
+    ];
+    let variants: [[&str; 3]; 14] = [
+        usual,
+        ["<Type> 2002 </Type>", usual[1], usual[2]],
+        ["<Type>+2002</Type>", "<Command>-1</Command>", usual[2]],
+        ["<Type>20O2</Type>", usual[1], usual[2]],
+        ["<Type>2147483648</Type>", usual[1], usual[2]],
+        ["<Type></Type>", usual[1], usual[2]],
+        [usual[0], usual[1], "<Time>2023-01-01 00:00:0</Time>"],
+        [usual[0], usual[1], "<Time>2023-01-01 00:00:000</Time>"],
+        [usual[0], usual[1], "<Time> 2023-01-01 00:00:00\n</Time>"],
+        [usual[0], usual[1], "<Time>2023-01-01T00:00:00</Time>"],
+        [usual[2], usual[1], usual[0]],
+        [usual[1], usual[0], usual[0]],
+        ["<Type>1</Type>", usual[0], usual[1]],
+        ["<type>2002</type>", usual[1], usual[2]],
+    ];
+    for [a, b, c] in variants {
+        let document = format!(
+            "<PatrolDevice>\n  {a}\n  {b}\n  {c}\n  <Items><ObsState>1</ObsState></Items>\n</PatrolDevice>"
+        );
+        assert_eq!(
+            format!("{:?}", Response::decode(document.as_bytes())),
+            format!("{:?}", Response::decode_general(document.as_bytes())),
+            "{document}"
+        );
+    }
+    assert_obstacle(&format!(
+        "<PatrolDevice>\n  {}\n  {}\n  {}\n  <Items><ObsState>1</ObsState></Items>\n</PatrolDevice>",
+        usual[0], usual[1], usual[2]
+    ));
+}
+
 #[test]
 fn any_whitespace_and_comments() {
     assert_obstacle(&BODY.replace("><", ">\n\t\t<"));

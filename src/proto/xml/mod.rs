@@ -14,7 +14,7 @@ pub mod number;
 pub mod reader;
 pub mod writer;
 
-use crate::proto::time::Timestamp;
+use crate::proto::time::{TIME_TEXT_LEN, Timestamp};
 use number::NumberError;
 use reader::{Token, Tokenizer, XmlError, element_text};
 
@@ -115,17 +115,26 @@ where
     let mut deferred = [const { 0..0 }; MAX_ITEMS_BLOCKS];
     let mut deferred_count = 0;
     let mut blocks = 0;
+    // The header element real documents write next.
+    let mut next_header = HeaderElement::ORDER.iter();
+    let mut expected = next_header.next();
     loop {
-        // The usual layout's header lines, unknown plain elements, start of a block and end
-        // of the document, without tokens.
-        let token = if let Some(element) = tokens.simple_element().filter(|e| e.name != b"Items") {
+        // The usual layout without tokens: the header line expected next, the start of a
+        // block, other header lines and unknown plain elements, and the end of the document.
+        if let Some(&element) = expected
+            && header.take_plain(&mut tokens, element)
+        {
+            expected = next_header.next();
+            continue;
+        }
+        let token = if tokens.plain_start(b"Items") {
+            Token::Start(b"Items")
+        } else if let Some(element) = tokens.simple_element().filter(|e| e.name != b"Items") {
             tokens.take(&element);
             if let Some(header_element) = HeaderElement::named(element.name) {
                 header.set(header_element, element.text)?;
             }
             continue;
-        } else if tokens.plain_start(b"Items") {
-            Token::Start(b"Items")
         } else if tokens.plain_end(b"PatrolDevice") {
             continue;
         } else {
@@ -235,17 +244,52 @@ struct Header {
 impl Header {
     /// Takes the text of the header element `element`.
     fn set(&mut self, element: HeaderElement, text: &[u8]) -> Result<(), StructureError> {
-        let int = |text| {
-            number::parse_int(text).map_err(|e| StructureError::BadNumber(element.name(), e))
-        };
-        match element {
-            HeaderElement::Type => self.message_type = Some(int(text)?),
-            HeaderElement::Command => self.command = Some(int(text)?),
-            HeaderElement::Time => {
-                self.time = Timestamp::decode(text).map_err(|_| StructureError::BadTime)?
+        match self.number_slot(element) {
+            Some(slot) => {
+                let value = number::parse_int(text)
+                    .map_err(|e| StructureError::BadNumber(element.name(), e))?;
+                *slot = Some(value);
             }
+            None => self.time = Timestamp::decode(text).map_err(|_| StructureError::BadTime)?,
         }
         Ok(())
+    }
+
+    /// Takes the header element `element` if it is what follows, written plainly: its name
+    /// is compared rather than scanned, and its value is read in the pass that finds its
+    /// end ([`Tokenizer::simple_value`]). Returns whether it did; if not, nothing is
+    /// consumed and the general path reads (or refuses) what is there. What it takes, it
+    /// takes exactly as [`Header::set`] would from the element's text.
+    // Out of line: inlined into the document reader, its two value readers cost about 300
+    // bytes more, and it runs only three times a document.
+    #[inline(never)]
+    fn take_plain(&mut self, tokens: &mut Tokenizer<'_>, element: HeaderElement) -> bool {
+        let name = element.name().as_bytes();
+        if let Some(slot) = self.number_slot(element) {
+            let value = tokens.simple_value(name, number::parse_int_prefix::<i32>);
+            if value.is_some() {
+                *slot = value;
+            }
+            return value.is_some();
+        }
+        // The time has a fixed length; whatever it accepts is digits and separators.
+        let time = tokens.simple_value(name, |text| {
+            let text = text.get(..TIME_TEXT_LEN)?;
+            Some((Timestamp::decode(text).ok()?, TIME_TEXT_LEN))
+        });
+        if let Some(time) = time {
+            self.time = time;
+        }
+        time.is_some()
+    }
+
+    /// Where the value of the integer element `element` goes; `None` for `Time`.
+    fn number_slot(&mut self, element: HeaderElement) -> Option<&mut Option<i32>> {
+        match element {
+            HeaderElement::Type => Some(&mut self.message_type),
+            HeaderElement::Command => Some(&mut self.command),
+            HeaderElement::Time => None,
+        }
     }
 }
 
@@ -258,6 +302,9 @@ enum HeaderElement {
 }
 
 impl HeaderElement {
+    /// The header elements in the order real documents write them.
+    const ORDER: [Self; 3] = [Self::Type, Self::Command, Self::Time];
+
     /// The header element called `tag`, or `None` for another element.
     fn named(tag: &[u8]) -> Option<Self> {
         match tag {
@@ -328,7 +375,7 @@ impl<'a> Items<'a> {
     }
 
     /// The next item's value if it is `name`, written plainly, with a number as text that
-    /// `read` accepts (see [`Tokenizer::simple_number`]); consumes nothing and returns `None`
+    /// `read` accepts (see [`Tokenizer::simple_value`]); consumes nothing and returns `None`
     /// otherwise.
     #[inline]
     pub fn next_number<T>(
@@ -339,7 +386,7 @@ impl<'a> Items<'a> {
         if self.done {
             return None;
         }
-        self.tokens.simple_number(name.as_bytes(), read)
+        self.tokens.simple_value(name.as_bytes(), read)
     }
 
     /// The next item if it is written plainly (`<name>text</name>`, the usual layout), and

@@ -181,15 +181,17 @@ impl<'a> Tokenizer<'a> {
     }
 
     /// [`Tokenizer::simple_element_expecting`] for the expected element `name` whose text
-    /// is a short number, read in the same pass that finds the text's end: `read` parses a
-    /// number at the start of the text and returns it with the length of its text. The
-    /// element is taken, and the number returned, only if it is `name` and its end tag
-    /// follows that text at once; the text is then exactly what
-    /// [`Tokenizer::simple_element_expecting`] would have returned (number text holds no
-    /// `<`, `&` or whitespace), and `read` must give for it what parsing it alone gives.
-    /// Otherwise nothing is consumed.
-    #[inline]
-    pub fn simple_number<T>(
+    /// is a short value (a number, the time), read in the same pass that finds the text's
+    /// end: `read` parses a value at the start of the text and returns it with the length
+    /// of its text. The element is taken, and the value returned, only if it is `name` and
+    /// its end tag follows that text at once. `read` must accept only text that holds no
+    /// `<` or `&` and neither starts nor ends with whitespace (digits, and the time's
+    /// separators), so the text is exactly what [`Tokenizer::simple_element_expecting`]
+    /// would have returned; and it must give for it what parsing it alone gives. Otherwise
+    /// nothing is consumed. Always inlined: its callers are the hot loops of the item and
+    /// header readers, and a shared copy made both slower.
+    #[inline(always)]
+    pub fn simple_value<T>(
         &mut self,
         name: &[u8],
         read: impl FnOnce(&[u8]) -> Option<(T, usize)>,
