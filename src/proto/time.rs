@@ -87,42 +87,34 @@ impl Timestamp {
     /// Parses `YYYY-MM-DD HH:MM:SS`.
     pub fn decode(text: &[u8]) -> Result<Self, BadTimestamp> {
         let text: &[u8; TIME_TEXT_LEN] = text.try_into().map_err(|_| BadTimestamp)?;
-        // Every byte has its fixed place, so each is checked and read there, with nothing
-        // carried from byte to byte.
-        let [
-            y0,
-            y1,
-            y2,
-            y3,
-            dash0,
-            mo0,
-            mo1,
-            dash1,
-            d0,
-            d1,
-            space,
-            h0,
-            h1,
-            colon0,
-            mi0,
-            mi1,
-            colon1,
-            s0,
-            s1,
-        ] = text.map(|c| c.wrapping_sub(b'0'));
-        let separators = [dash0, dash1, space, colon0, colon1].map(|c| c.wrapping_add(b'0'));
-        let digits = [y0, y1, y2, y3, mo0, mo1, d0, d1, h0, h1, mi0, mi1, s0, s1];
-        if separators != *b"-- ::" || digits.iter().any(|&d| d > 9) {
+        // Every byte has its fixed place: the separators, and seven pairs of digits (the
+        // year is two), each checked and read there.
+        const SEPARATORS: [(usize, u8); 5] =
+            [(4, b'-'), (7, b'-'), (10, b' '), (13, b':'), (16, b':')];
+        const PAIRS: [usize; 7] = [0, 2, 5, 8, 11, 14, 17];
+        if SEPARATORS.iter().any(|&(at, c)| text.get(at) != Some(&c)) {
             return Err(BadTimestamp);
         }
-        let two = |tens: u8, ones: u8| tens * 10 + ones;
+        let digit = |at: usize| {
+            text.get(at)
+                .map(|c| c.wrapping_sub(b'0'))
+                .filter(|&d| d <= 9)
+        };
+        let mut pairs = [0u8; PAIRS.len()];
+        for (pair, &at) in pairs.iter_mut().zip(&PAIRS) {
+            let (Some(tens), Some(ones)) = (digit(at), digit(at + 1)) else {
+                return Err(BadTimestamp);
+            };
+            *pair = tens * 10 + ones;
+        }
+        let [century, year, month, day, hour, minute, second] = pairs;
         Ok(Self {
-            year: u16::from(two(y0, y1)) * 100 + u16::from(two(y2, y3)),
-            month: two(mo0, mo1),
-            day: two(d0, d1),
-            hour: two(h0, h1),
-            minute: two(mi0, mi1),
-            second: two(s0, s1),
+            year: u16::from(century) * 100 + u16::from(year),
+            month,
+            day,
+            hour,
+            minute,
+            second,
         })
     }
 
