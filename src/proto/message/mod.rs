@@ -280,15 +280,25 @@ impl Request {
 
     fn decode_from(tokens: Tokenizer<'_>) -> Result<Decoded<Self>, DecodeError> {
         let mut message = None;
-        let mut points = heapless::Vec::<NavPoint, MAX_NAV_POINTS>::new();
         let (envelope, blocks) = read_tokens(tokens, &mut |envelope, items| {
             match MessageType::from_raw(envelope.message_type) {
-                // Each block is one waypoint; read_document allows no more blocks than fit.
-                MessageType::NavTask => points.push(NavPoint::read_items(items)?).map_err(|_| {
-                    DecodeError::ItemsBlocks {
-                        found: MAX_NAV_POINTS + 1,
-                    }
-                }),
+                // Each block is one waypoint, added to the task in place (the task is large,
+                // and every move of it is a copy); read_document allows no more blocks than
+                // fit.
+                MessageType::NavTask => {
+                    let point = NavPoint::read_items(items)?;
+                    let task = message.get_or_insert(Self::NavTask(NavTask {
+                        points: heapless::Vec::new(),
+                    }));
+                    let Self::NavTask(task) = task else {
+                        return Ok(());
+                    };
+                    task.points
+                        .push(point)
+                        .map_err(|_| DecodeError::ItemsBlocks {
+                            found: MAX_NAV_POINTS + 1,
+                        })
+                }
                 MessageType::Light if message.is_none() => {
                     message = Some(Self::Light(Light::read_items(items)?));
                     Ok(())
@@ -311,10 +321,10 @@ impl Request {
             MessageType::MotorTemperatures => Self::MotorTemperatures,
             MessageType::Battery => Self::Battery,
             MessageType::Perception => Self::Perception,
-            MessageType::NavTask if points.is_empty() => {
-                return Err(DecodeError::ItemsBlocks { found: 0 });
-            }
-            MessageType::NavTask => Self::NavTask(NavTask { points }),
+            MessageType::NavTask => match message {
+                Some(task) => task,
+                None => return Err(DecodeError::ItemsBlocks { found: 0 }),
+            },
             MessageType::Light | MessageType::Relocalize | MessageType::Motion => {
                 match (message, blocks) {
                     (Some(message), 1) => message,
