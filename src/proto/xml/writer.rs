@@ -32,41 +32,6 @@ pub enum WriteError {
     },
 }
 
-/// Appends bytes to the caller's buffer, failing rather than truncating.
-#[derive(Debug)]
-struct XmlWriter<'a> {
-    buf: &'a mut [u8],
-    len: usize,
-}
-
-impl XmlWriter<'_> {
-    /// Appends bytes as they are (markup the caller knows to be well formed).
-    fn raw(&mut self, bytes: &[u8]) -> Result<(), WriteError> {
-        let end = self.len + bytes.len();
-        self.buf
-            .get_mut(self.len..end)
-            .ok_or(WriteError::BufferFull)?
-            .copy_from_slice(bytes);
-        self.len = end;
-        Ok(())
-    }
-
-    /// Writes an item line, `    <name>value</name>` and a newline, with one bounds check.
-    fn item_line(&mut self, name: &[u8], value: &[u8]) -> Result<(), WriteError> {
-        let total = ITEM_INDENT.len() + 2 * name.len() + value.len() + 6;
-        let out = self
-            .buf
-            .get_mut(self.len..self.len + total)
-            .ok_or(WriteError::BufferFull)?;
-        let mut out = Cursor(out);
-        out.open_tag(ITEM_INDENT, name, Cursor::put);
-        out.put(value);
-        out.close_tag(name, b"\n", Cursor::put);
-        self.len += total;
-        Ok(())
-    }
-}
-
 /// Fills a slice already checked to be long enough, piece by piece.
 struct Cursor<'a>(&'a mut [u8]);
 
@@ -82,23 +47,23 @@ impl Cursor<'_> {
         }
     }
 
-    /// Writes `{indent}<name>`, the start of a line, the name copied by `put_name`
+    /// Writes `    <name>`, the start of an item line, the name copied by `put_name`
     /// ([`Cursor::put_name`] where the line is hot, [`Cursor::put`] where size matters more).
     #[inline(always)]
-    fn open_tag(&mut self, indent: &[u8], name: &[u8], put_name: fn(&mut Self, &[u8])) {
-        self.put(indent);
+    fn open_tag(&mut self, name: &[u8], put_name: fn(&mut Self, &[u8])) {
+        self.put(ITEM_INDENT);
         self.put(b"<");
         put_name(self, name);
         self.put(b">");
     }
 
-    /// Writes `</name>{newline}`, the end of a line, the name copied by `put_name`.
+    /// Writes `</name>` and a newline, the end of an item line, the name copied by
+    /// `put_name`.
     #[inline(always)]
-    fn close_tag(&mut self, name: &[u8], newline: &[u8], put_name: fn(&mut Self, &[u8])) {
+    fn close_tag(&mut self, name: &[u8], put_name: fn(&mut Self, &[u8])) {
         self.put(b"</");
         put_name(self, name);
-        self.put(b">");
-        self.put(newline);
+        self.put(b">\n");
     }
 
     /// [`Cursor::put`] for an element name: 1 to 16 bytes are copied as two overlapping
@@ -182,8 +147,8 @@ const LINE_WINDOW: usize = 64 + NUMBER_MAX;
 fn item_tags(window: &mut [u8; LINE_WINDOW], name: &[u8], n: usize) -> usize {
     let name_len = name.len().min(NAME_MAX);
     let end = ITEM_INDENT.len() + name_len + 2 + n.min(NUMBER_MAX);
-    Cursor(window).open_tag(ITEM_INDENT, name, Cursor::put_name);
-    Cursor(window.get_mut(end..).unwrap_or_default()).close_tag(name, b"\n", Cursor::put_name);
+    Cursor(window).open_tag(name, Cursor::put_name);
+    Cursor(window.get_mut(end..).unwrap_or_default()).close_tag(name, Cursor::put_name);
     end + name_len + 4
 }
 
@@ -199,7 +164,9 @@ const ITEM_INDENT: &[u8] = b"    ";
 /// Items open an `<Items>` block on first use; a document with no items gets `<Items/>`.
 #[derive(Debug)]
 pub struct DocumentWriter<'a> {
-    w: XmlWriter<'a>,
+    buf: &'a mut [u8],
+    /// Bytes written so far.
+    len: usize,
     items_open: bool,
     blocks: usize,
 }
@@ -240,9 +207,9 @@ impl<'a> DocumentWriter<'a> {
         out.put(after_command);
         out.put(&time_text);
         out.put(after_time);
-        let w = XmlWriter { buf, len: total };
         Ok(Self {
-            w,
+            buf,
+            len: total,
             items_open: false,
             blocks: 0,
         })
@@ -273,7 +240,7 @@ impl<'a> DocumentWriter<'a> {
     ) -> Result<(), WriteError> {
         self.open_items()?;
         let bytes = name.as_bytes();
-        let out = self.w.buf.get_mut(self.w.len..).unwrap_or_default();
+        let out = self.buf.get_mut(self.len..).unwrap_or_default();
         let window = out
             .first_chunk_mut::<LINE_WINDOW>()
             .filter(|_| bytes.len() <= NAME_MAX);
@@ -290,20 +257,42 @@ impl<'a> DocumentWriter<'a> {
             Some(text) => value.format(name, text)?,
             None => 0,
         };
-        self.w.len += item_tags(window, bytes, n);
+        self.len += item_tags(window, bytes, n);
         Ok(())
     }
 
-    /// Writes an item line whose number was formatted aside, near the buffer's end.
+    /// Writes an item line whose number was formatted aside, near the buffer's end, with
+    /// one bounds check.
     #[inline(never)]
     fn number_line(&mut self, name: &[u8], text: &[u8]) -> Result<(), WriteError> {
-        self.w.item_line(name, text)
+        let total = ITEM_INDENT.len() + 2 * name.len() + text.len() + 6;
+        let out = self
+            .buf
+            .get_mut(self.len..self.len + total)
+            .ok_or(WriteError::BufferFull)?;
+        let mut out = Cursor(out);
+        out.open_tag(name, Cursor::put);
+        out.put(text);
+        out.close_tag(name, Cursor::put);
+        self.len += total;
+        Ok(())
+    }
+
+    /// Appends constant markup.
+    fn raw(&mut self, bytes: &[u8]) -> Result<(), WriteError> {
+        let end = self.len + bytes.len();
+        self.buf
+            .get_mut(self.len..end)
+            .ok_or(WriteError::BufferFull)?
+            .copy_from_slice(bytes);
+        self.len = end;
+        Ok(())
     }
 
     /// Opens the `<Items>` block if no block is open.
     fn open_items(&mut self) -> Result<(), WriteError> {
         if !self.items_open {
-            self.w.raw(b"  <Items>\n")?;
+            self.raw(b"  <Items>\n")?;
             self.items_open = true;
         }
         Ok(())
@@ -313,7 +302,7 @@ impl<'a> DocumentWriter<'a> {
     /// request carries one block per waypoint).
     pub fn end_items_block(&mut self) -> Result<(), WriteError> {
         if self.items_open {
-            self.w.raw(b"  </Items>\n")?;
+            self.raw(b"  </Items>\n")?;
             self.items_open = false;
             self.blocks += 1;
         }
@@ -324,9 +313,9 @@ impl<'a> DocumentWriter<'a> {
     pub fn finish(mut self) -> Result<usize, WriteError> {
         self.end_items_block()?;
         if self.blocks == 0 {
-            self.w.raw(b"  <Items/>\n")?;
+            self.raw(b"  <Items/>\n")?;
         }
-        self.w.raw(b"</PatrolDevice>\n")?;
-        Ok(self.w.len)
+        self.raw(b"</PatrolDevice>\n")?;
+        Ok(self.len)
     }
 }
