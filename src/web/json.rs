@@ -27,7 +27,7 @@ use embassy_time::{Duration, Instant};
 use crate::app::Snapshot;
 use crate::panel::indicators::LinkState;
 use crate::panel::monitor::{Stamped, stale_limit};
-use crate::proto::message::items::{ItemSet, ItemSpec, Kind, Raw};
+use crate::proto::message::items::{ItemSet, ItemSpec, Kind, Present};
 use crate::proto::message::{Battery, MotorTemperatures, NavTaskState, Perception, RobotStatus};
 use crate::proto::xml::number::F32_TEXT_MAX;
 use crate::settings::write_f32;
@@ -193,7 +193,8 @@ fn answer<T: Shown>(
         stale: age >= stale_limit(period),
         unavailable: value.unavailable(),
     };
-    object(out, T::SPEC, value.to_values().as_ref(), facts, words)
+    let (values, present) = value.to_values();
+    object(out, T::SPEC, values.as_ref(), present, facts, words)
 }
 
 /// What an answer's object tells besides its items.
@@ -206,24 +207,25 @@ struct Facts {
     unavailable: Option<bool>,
 }
 
-/// Writes one answer's object: `values` under the names of `spec`, then `facts`, then
-/// `words` as `text`.
+/// Writes one answer's object: `values` under the names of `spec` (`null` where not
+/// `present`), then `facts`, then `words` as `text`.
 // One copy serves every answer.
 #[inline(never)]
 fn object(
     out: &mut dyn Write,
     spec: &[ItemSpec],
-    values: &[Raw],
+    values: &[u32],
+    present: Present,
     facts: Facts,
     words: &mut dyn Iterator<Item = (&'static str, &'static str)>,
 ) -> fmt::Result {
     out.write_char('{')?;
-    for (item, value) in spec.iter().zip(values) {
+    for (index, (item, &bits)) in spec.iter().zip(values).enumerate() {
         write!(out, "\"{}\":", item.name)?;
-        match (item.kind, *value) {
-            (Kind::Float, Some(bits)) => float(out, f32::from_bits(bits))?,
-            (Kind::Int | Kind::Byte, Some(bits)) => write!(out, "{}", bits as i32)?,
-            (_, None) => out.write_str("null")?,
+        match item.kind {
+            _ if present >> index & 1 == 0 => out.write_str("null")?,
+            Kind::Float => float(out, f32::from_bits(bits))?,
+            Kind::Int | Kind::Byte => write!(out, "{}", bits as i32)?,
         }
         out.write_char(',')?;
     }

@@ -1,9 +1,9 @@
 //! How typed fields become `<Items>` children and back.
 //!
 //! Every item is an integer or a float on the wire, so a message's items are described by
-//! a table of [`ItemSpec`]s and carried through one array of [`Raw`] values: one reader
-//! and one writer serve every message, and each message adds only its table and the conversion
-//! between its fields and that array. The `item_set!` macro writes both from a struct
+//! a table of [`ItemSpec`]s and carried through one array of wire values with a mask of
+//! those present: one reader and one writer serve every message, and each message adds only
+//! its table and the conversion between its fields and that array. The `item_set!` macro writes both from a struct
 //! definition that names each field's element, so the list of items is written down once.
 //! Keeping per-message code this small is what lets the whole codec fit a few KiB of flash.
 
@@ -36,8 +36,17 @@ pub struct ItemSpec {
     pub required: bool,
 }
 
-/// One item's value as received: the bits of an `i32` or an `f32`, or `None` if absent.
+/// One item's value as a field holds it: the bits of an `i32` or an `f32`, or `None` for an
+/// optional item that is absent.
 pub type Raw = Option<u32>;
+
+/// Which items of a table are present: bit `i` for the table's item `i`. Tables hold at most
+/// 32 items (checked where each is defined), so one word, set and tested in one
+/// instruction, replaces a presence flag beside every value.
+pub type Present = u32;
+
+/// Most items a table may hold: one bit each in [`Present`].
+pub const MAX_ITEMS: usize = Present::BITS as usize;
 
 /// A field type that can be an item.
 pub trait ItemValue: Sized {
@@ -99,25 +108,52 @@ impl<T: ItemValue> ItemValue for Option<T> {
 }
 
 /// A field from its item as received, or `default` when the item was absent.
-pub fn field<T: ItemValue>(raw: Raw, default: impl FnOnce() -> T) -> T {
-    raw.map_or_else(default, T::from_raw_bits)
+pub fn field<T: ItemValue>(bits: u32, present: bool, default: impl FnOnce() -> T) -> T {
+    if present {
+        T::from_raw_bits(bits)
+    } else {
+        default()
+    }
+}
+
+/// Which items of `spec` are required. Fails the build for a table of more than
+/// [`MAX_ITEMS`] items.
+pub const fn required_items(spec: &[ItemSpec]) -> Present {
+    assert!(
+        spec.len() <= MAX_ITEMS,
+        "an item table holds at most 32 items"
+    );
+    let mut mask = 0;
+    let mut rest = spec;
+    let mut bit = 1;
+    while let [item, tail @ ..] = rest {
+        if item.required {
+            mask |= bit;
+        }
+        bit <<= 1;
+        rest = tail;
+    }
+    mask
 }
 
 /// A message's items as a whole.
 pub trait ItemSet: Sized {
     /// The items, in the order the document lists them.
     const SPEC: &'static [ItemSpec];
-    /// One wire value per item, in [`ItemSet::SPEC`] order.
-    type Values: AsRef<[Raw]> + AsMut<[Raw]> + Default;
+    /// One wire value per item, in [`ItemSet::SPEC`] order (0 where absent).
+    type Values: AsRef<[u32]> + AsMut<[u32]> + Default;
+    /// Which items are required: a document without one of them is an error.
+    const REQUIRED: Present;
 
-    /// The fields as wire values.
-    fn to_values(&self) -> Self::Values;
+    /// The fields as wire values, and which of them are present.
+    fn to_values(&self) -> (Self::Values, Present);
     /// The fields from wire values, every required one present.
-    fn from_values(values: Self::Values) -> Self;
+    fn from_values(values: Self::Values, present: Present) -> Self;
 
     /// Writes every item.
     fn write_items(&self, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError> {
-        write_values(doc, Self::SPEC, self.to_values().as_ref())
+        let (values, present) = self.to_values();
+        write_values(doc, Self::SPEC, values.as_ref(), present)
     }
 
     /// Which names can be in [`ItemSet::SPEC`], for passing over unknown items quickly.
@@ -127,8 +163,11 @@ pub trait ItemSet: Sized {
     /// an error naming it.
     fn read_items(items: &mut Items<'_>) -> Result<Self, DecodeError> {
         let mut values = Self::Values::default();
-        read_values(items, Self::SPEC, Self::NAMES, values.as_mut())?;
-        Ok(Self::from_values(values))
+        let present = read_values(items, Self::SPEC, Self::NAMES, values.as_mut())?;
+        match Self::REQUIRED & !present {
+            0 => Ok(Self::from_values(values, present)),
+            missing => Err(missing_item(Self::SPEC, missing)),
+        }
     }
 }
 
@@ -180,18 +219,28 @@ impl NameFilter {
     }
 }
 
-/// Writes the present values as items.
+/// The error for the first of the `missing` items of `spec`.
+// Out of line: only a faulty document takes it.
+#[inline(never)]
+#[cold]
+fn missing_item(spec: &[ItemSpec], missing: Present) -> DecodeError {
+    let first = spec.get(missing.trailing_zeros() as usize);
+    DecodeError::MissingItem(first.map_or("", |item| item.name))
+}
+
+/// Writes the `present` values as items.
 // One copy serves every message; inlined into each it would cost a copy per message.
 #[inline(never)]
 fn write_values(
     doc: &mut DocumentWriter<'_>,
     spec: &[ItemSpec],
-    values: &[Raw],
+    values: &[u32],
+    present: Present,
 ) -> Result<(), WriteError> {
-    for (item, value) in spec.iter().zip(values) {
-        let Some(bits) = *value else {
+    for (index, (item, &bits)) in spec.iter().zip(values).enumerate() {
+        if present >> index & 1 == 0 {
             continue;
-        };
+        }
         let number = match item.kind {
             Kind::Float => Number::Float(f32::from_bits(bits)),
             Kind::Int | Kind::Byte => Number::Int(bits as i32),
@@ -213,21 +262,23 @@ pub(crate) fn write_item(
         kind,
         required: true,
     };
-    write_values(doc, &[spec], &[Some(bits)])
+    write_values(doc, &[spec], &[bits], 1)
 }
 
 /// Reads a block's items into `values`, by position in `spec`; unknown items are skipped.
+/// Returns which items were found.
 #[inline(never)]
 fn read_values(
     items: &mut Items<'_>,
     spec: &[ItemSpec],
     names: NameFilter,
-    values: &mut [Raw],
-) -> Result<(), DecodeError> {
+    values: &mut [u32],
+) -> Result<Present, DecodeError> {
     // Documents list items in the table's order, so the search starts after the item found
     // last: a known item is then found at the first comparison. Names are unique in a
     // table, so where the search starts cannot change what it finds.
     let mut next = 0;
+    let mut present: Present = 0;
     loop {
         // The usual layout: the item the table lists next, written plainly. An integer's
         // text is short, so it is read in the pass that finds its end; a float's text is
@@ -243,13 +294,15 @@ fn read_values(
                     .map(i32::from),
             };
             if let Some(integer) = integer {
-                *value = Some(integer as u32);
+                *value = integer as u32;
+                present |= 1 << next;
                 next += 1;
                 continue;
             }
             match items.next_plain(spec.name) {
                 Some((item, true)) => {
-                    *value = Some(parse_text(item.text, spec)?);
+                    *value = parse_text(item.text, spec)?;
+                    present |= 1 << next;
                     next += 1;
                     continue;
                 }
@@ -274,18 +327,12 @@ fn read_values(
         };
         let known = index.and_then(|i| Some((i, spec.get(i)?, values.get_mut(i)?)));
         if let Some((index, spec, value)) = known {
-            *value = Some(parse_text(item.text, spec)?);
+            *value = parse_text(item.text, spec)?;
+            present |= 1 << index;
             next = index + 1;
         }
     }
-    match spec
-        .iter()
-        .zip(values)
-        .find(|(s, v)| s.required && v.is_none())
-    {
-        Some((missing, _)) => Err(DecodeError::MissingItem(missing.name)),
-        None => Ok(()),
-    }
+    Ok(present)
 }
 
 /// Parses one item's text (`None`: it holds elements) as its spec says, naming the item on
@@ -335,29 +382,48 @@ macro_rules! item_set {
                     required: item_set!(@required $($default)?),
                 },
             )*];
-            type Values = [$crate::proto::message::items::Raw; [$($wire),*].len()];
+            type Values = [u32; [$($wire),*].len()];
+            const REQUIRED: $crate::proto::message::items::Present =
+                $crate::proto::message::items::required_items(Self::SPEC);
 
-            fn to_values(&self) -> Self::Values {
+            fn to_values(&self) -> (Self::Values, $crate::proto::message::items::Present) {
                 use $crate::proto::message::items::ItemValue;
-                [$( self.$field.to_raw() ),*]
+                // Each field's position in the table, by name.
+                #[allow(non_camel_case_types)]
+                enum Position { $($field),* }
+                let mut present = 0;
+                let values = [$({
+                    let raw = self.$field.to_raw();
+                    present |= u32::from(raw.is_some()) << Position::$field as u32;
+                    raw.unwrap_or(0)
+                }),*];
+                (values, present)
             }
 
-            fn from_values(values: Self::Values) -> Self {
+            fn from_values(
+                values: Self::Values,
+                #[allow(unused_variables)] present: $crate::proto::message::items::Present,
+            ) -> Self {
+                // Each field's position in the table, by name; only optional ones ask.
+                #[allow(non_camel_case_types, dead_code)]
+                enum Position { $($field),* }
                 let [$($field),*] = values;
                 Self {
-                    $( $field: item_set!(@field $field $($default)?), )*
+                    $( $field: item_set!(
+                        @field $field, present >> Position::$field as u32 & 1 != 0 $(, $default)?
+                    ), )*
                 }
             }
         }
     };
     (@required) => { true };
     (@required $default:expr) => { false };
-    // read_values has checked that required items are present: no branch for absence.
-    (@field $raw:ident) => {
-        $crate::proto::message::items::ItemValue::from_raw_bits($raw.unwrap_or(0))
+    // read_items has checked that required items are present: no branch for absence.
+    (@field $bits:ident, $present:expr) => {
+        $crate::proto::message::items::ItemValue::from_raw_bits($bits)
     };
-    (@field $raw:ident $default:expr) => {
-        $crate::proto::message::items::field($raw, || $default)
+    (@field $bits:ident, $present:expr, $default:expr) => {
+        $crate::proto::message::items::field($bits, $present, || $default)
     };
 }
 pub(crate) use item_set;
