@@ -141,14 +141,15 @@ pub trait ItemSet: Sized {
     /// The items, in the order the document lists them.
     const SPEC: &'static [ItemSpec];
     /// One wire value per item, in [`ItemSet::SPEC`] order (0 where absent).
-    type Values: AsRef<[u32]> + AsMut<[u32]> + Default;
+    type Values: AsRef<[u32]>;
     /// Which items are required: a document without one of them is an error.
     const REQUIRED: Present;
 
     /// The fields as wire values, and which of them are present.
     fn to_values(&self) -> (Self::Values, Present);
-    /// The fields from wire values, every required one present.
-    fn from_values(values: Self::Values, present: Present) -> Self;
+    /// The fields from wire values in [`ItemSet::SPEC`] order (the rest of the array
+    /// unused), every required one present.
+    fn from_values(values: &[u32; MAX_ITEMS], present: Present) -> Self;
 
     /// Writes every item.
     fn write_items(&self, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError> {
@@ -162,12 +163,8 @@ pub trait ItemSet: Sized {
     /// Reads the items of one block; unknown items are skipped, a missing required one is
     /// an error naming it.
     fn read_items(items: &mut Items<'_>) -> Result<Self, DecodeError> {
-        let mut values = Self::Values::default();
-        let present = read_values(items, Self::SPEC, Self::NAMES, values.as_mut())?;
-        match Self::REQUIRED & !present {
-            0 => Ok(Self::from_values(values, present)),
-            missing => Err(missing_item(Self::SPEC, missing)),
-        }
+        let (values, present) = read_values(items, Self::SPEC, Self::NAMES, Self::REQUIRED)?;
+        Ok(Self::from_values(&values, present))
     }
 }
 
@@ -219,15 +216,6 @@ impl NameFilter {
     }
 }
 
-/// The error for the first of the `missing` items of `spec`.
-// Out of line: only a faulty document takes it.
-#[inline(never)]
-#[cold]
-fn missing_item(spec: &[ItemSpec], missing: Present) -> DecodeError {
-    let first = spec.get(missing.trailing_zeros() as usize);
-    DecodeError::MissingItem(first.map_or("", |item| item.name))
-}
-
 /// Writes the `present` values as items.
 // One copy serves every message; inlined into each it would cost a copy per message.
 #[inline(never)]
@@ -265,15 +253,17 @@ pub(crate) fn write_item(
     write_values(doc, &[spec], &[bits], 1)
 }
 
-/// Reads a block's items into `values`, by position in `spec`; unknown items are skipped.
-/// Returns which items were found.
+/// Reads a block's items, by position in `spec`, and which were found; unknown items are
+/// skipped, and a missing `required` one is an error naming it. One copy serves every
+/// table, so the values have room for the largest.
 #[inline(never)]
 fn read_values(
     items: &mut Items<'_>,
     spec: &[ItemSpec],
     names: NameFilter,
-    values: &mut [u32],
-) -> Result<Present, DecodeError> {
+    required: Present,
+) -> Result<([u32; MAX_ITEMS], Present), DecodeError> {
+    let mut values = [0; MAX_ITEMS];
     // Documents list items in the table's order, so the search starts after the item found
     // last: a known item is then found at the first comparison. Names are unique in a
     // table, so where the search starts cannot change what it finds.
@@ -332,7 +322,13 @@ fn read_values(
             next = index + 1;
         }
     }
-    Ok(present)
+    match required & !present {
+        0 => Ok((values, present)),
+        missing => {
+            let first = spec.get(missing.trailing_zeros() as usize);
+            Err(DecodeError::MissingItem(first.map_or("", |item| item.name)))
+        }
+    }
 }
 
 /// Parses one item's text (`None`: it holds elements) as its spec says, naming the item on
@@ -401,13 +397,13 @@ macro_rules! item_set {
             }
 
             fn from_values(
-                values: Self::Values,
+                values: &[u32; $crate::proto::message::items::MAX_ITEMS],
                 #[allow(unused_variables)] present: $crate::proto::message::items::Present,
             ) -> Self {
                 // Each field's position in the table, by name; only optional ones ask.
                 #[allow(non_camel_case_types, dead_code)]
                 enum Position { $($field),* }
-                let [$($field),*] = values;
+                let [$($field,)* ..] = *values;
                 Self {
                     $( $field: item_set!(
                         @field $field, present >> Position::$field as u32 & 1 != 0 $(, $default)?
