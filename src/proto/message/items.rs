@@ -116,9 +116,30 @@ pub fn field<T: ItemValue>(bits: u32, present: bool, default: impl FnOnce() -> T
     }
 }
 
-/// Which items of `spec` are required. Fails the build for a table of more than
-/// [`MAX_ITEMS`] items.
-pub const fn required_items(spec: &[ItemSpec]) -> Present {
+/// A message's item table with what the reader derives from it once, at build time, so
+/// that reading a block takes one pointer to all of it.
+pub struct Table {
+    /// The items, in the order the document lists them.
+    pub spec: &'static [ItemSpec],
+    /// Which names can be in the table.
+    names: NameFilter,
+    /// Which items a document must hold.
+    required: Present,
+}
+
+impl Table {
+    /// The table of `spec`. Fails the build for a table of more than [`MAX_ITEMS`] items.
+    pub const fn of(spec: &'static [ItemSpec]) -> Self {
+        Self {
+            spec,
+            names: NameFilter::of(spec),
+            required: required_items(spec),
+        }
+    }
+}
+
+/// Which items of `spec` are required.
+const fn required_items(spec: &[ItemSpec]) -> Present {
     assert!(
         spec.len() <= MAX_ITEMS,
         "an item table holds at most 32 items"
@@ -142,8 +163,8 @@ pub trait ItemSet: Sized {
     const SPEC: &'static [ItemSpec];
     /// One wire value per item, in [`ItemSet::SPEC`] order (0 where absent).
     type Values: AsRef<[u32]>;
-    /// Which items are required: a document without one of them is an error.
-    const REQUIRED: Present;
+    /// [`ItemSet::SPEC`] as the reader takes it.
+    const TABLE: &'static Table = &Table::of(Self::SPEC);
 
     /// The fields as wire values, and which of them are present.
     fn to_values(&self) -> (Self::Values, Present);
@@ -157,13 +178,10 @@ pub trait ItemSet: Sized {
         write_values(doc, Self::SPEC, values.as_ref(), present)
     }
 
-    /// Which names can be in [`ItemSet::SPEC`], for passing over unknown items quickly.
-    const NAMES: NameFilter = NameFilter::of(Self::SPEC);
-
     /// Reads the items of one block; unknown items are skipped, a missing required one is
     /// an error naming it.
     fn read_items(items: &mut Items<'_>) -> Result<Self, DecodeError> {
-        let (values, present) = read_values(items, Self::SPEC, Self::NAMES, Self::REQUIRED)?;
+        let (values, present) = read_values(items, Self::TABLE)?;
         Ok(Self::from_values(&values, present))
     }
 }
@@ -253,16 +271,19 @@ pub(crate) fn write_item(
     write_values(doc, &[spec], &[bits], 1)
 }
 
-/// Reads a block's items, by position in `spec`, and which were found; unknown items are
-/// skipped, and a missing `required` one is an error naming it. One copy serves every
+/// Reads a block's items, by position in `table`, and which were found; unknown items are
+/// skipped, and a missing required one is an error naming it. One copy serves every
 /// table, so the values have room for the largest.
 #[inline(never)]
-fn read_values(
+pub(crate) fn read_values(
     items: &mut Items<'_>,
-    spec: &[ItemSpec],
-    names: NameFilter,
-    required: Present,
+    table: &Table,
 ) -> Result<([u32; MAX_ITEMS], Present), DecodeError> {
+    let Table {
+        spec,
+        names,
+        required,
+    } = *table;
     let mut values = [0; MAX_ITEMS];
     // Documents list items in the table's order, so the search starts after the item found
     // last: a known item is then found at the first comparison. Names are unique in a
@@ -379,8 +400,6 @@ macro_rules! item_set {
                 },
             )*];
             type Values = [u32; [$($wire),*].len()];
-            const REQUIRED: $crate::proto::message::items::Present =
-                $crate::proto::message::items::required_items(Self::SPEC);
 
             fn to_values(&self) -> (Self::Values, $crate::proto::message::items::Present) {
                 use $crate::proto::message::items::ItemValue;
