@@ -27,7 +27,7 @@ use embassy_time::{Duration, Instant};
 use crate::app::Snapshot;
 use crate::panel::indicators::LinkState;
 use crate::panel::monitor::{Stamped, stale_limit};
-use crate::proto::message::items::{ItemSet, ItemSpec, Kind, Present};
+use crate::proto::message::items::{ItemSet, ItemSpec, Kind, MAX_ITEMS, Present};
 use crate::proto::message::{Battery, MotorTemperatures, NavTaskState, Perception, RobotStatus};
 use crate::proto::xml::number::F32_TEXT_MAX;
 use crate::settings::write_f32;
@@ -193,8 +193,9 @@ fn answer<T: Shown>(
         stale: age >= stale_limit(period),
         unavailable: value.unavailable(),
     };
-    let (values, present) = value.to_values();
-    object(out, T::SPEC, values.as_ref(), present, facts, words)
+    let mut values = [0; MAX_ITEMS];
+    let present = value.to_values(&mut values);
+    object(out, T::SPEC, &values, present, facts, words)
 }
 
 /// What an answer's object tells besides its items.

@@ -48,6 +48,10 @@ pub type Present = u32;
 /// Most items a table may hold: one bit each in [`Present`].
 pub const MAX_ITEMS: usize = Present::BITS as usize;
 
+/// One block's wire values in table order, with room for the largest table, so that one
+/// copy of the code reading or writing them serves every message.
+pub type Values = [u32; MAX_ITEMS];
+
 /// A field type that can be an item.
 pub trait ItemValue: Sized {
     /// What the item holds on the wire.
@@ -161,21 +165,20 @@ const fn required_items(spec: &[ItemSpec]) -> Present {
 pub trait ItemSet: Sized {
     /// The items, in the order the document lists them.
     const SPEC: &'static [ItemSpec];
-    /// One wire value per item, in [`ItemSet::SPEC`] order (0 where absent).
-    type Values: AsRef<[u32]>;
     /// [`ItemSet::SPEC`] as the reader takes it.
     const TABLE: &'static Table = &Table::of(Self::SPEC);
 
-    /// The fields as wire values, and which of them are present.
-    fn to_values(&self) -> (Self::Values, Present);
-    /// The fields from wire values in [`ItemSet::SPEC`] order (the rest of the array
-    /// unused), every required one present.
-    fn from_values(values: &[u32; MAX_ITEMS], present: Present) -> Self;
+    /// Puts the fields as wire values in [`ItemSet::SPEC`] order into `values` (the rest
+    /// untouched), and returns which of them are present.
+    fn to_values(&self, values: &mut Values) -> Present;
+    /// The fields from wire values in [`ItemSet::SPEC`] order (the rest unused), every
+    /// required one present.
+    fn from_values(values: &Values, present: Present) -> Self;
 
-    /// Writes every item.
-    fn write_items(&self, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError> {
-        let (values, present) = self.to_values();
-        write_values(doc, Self::SPEC, values.as_ref(), present)
+    /// [`ItemSet::to_values`] with the table they belong to, for writing the block of any
+    /// message with one call.
+    fn to_block(&self, values: &mut Values) -> (&'static [ItemSpec], Present) {
+        (Self::SPEC, self.to_values(values))
     }
 
     /// Reads the items of one block; unknown items are skipped, a missing required one is
@@ -237,7 +240,7 @@ impl NameFilter {
 /// Writes the `present` values as items.
 // One copy serves every message; inlined into each it would cost a copy per message.
 #[inline(never)]
-fn write_values(
+pub(crate) fn write_values(
     doc: &mut DocumentWriter<'_>,
     spec: &[ItemSpec],
     values: &[u32],
@@ -254,21 +257,6 @@ fn write_values(
         doc.number_item(item.name, number)?;
     }
     Ok(())
-}
-
-/// Writes one item, as a table of one: the item line is written in one place only.
-pub(crate) fn write_item(
-    doc: &mut DocumentWriter<'_>,
-    name: &'static str,
-    kind: Kind,
-    bits: u32,
-) -> Result<(), WriteError> {
-    let spec = ItemSpec {
-        name,
-        kind,
-        required: true,
-    };
-    write_values(doc, &[spec], &[bits], 1)
 }
 
 /// Reads a block's items, by position in `table`, and which were found; unknown items are
@@ -399,24 +387,26 @@ macro_rules! item_set {
                     required: item_set!(@required $($default)?),
                 },
             )*];
-            type Values = [u32; [$($wire),*].len()];
-
-            fn to_values(&self) -> (Self::Values, $crate::proto::message::items::Present) {
+            fn to_values(
+                &self,
+                values: &mut $crate::proto::message::items::Values,
+            ) -> $crate::proto::message::items::Present {
                 use $crate::proto::message::items::ItemValue;
                 // Each field's position in the table, by name.
                 #[allow(non_camel_case_types)]
                 enum Position { $($field),* }
                 let mut present = 0;
-                let values = [$({
+                let [$($field,)* ..] = values;
+                $(
                     let raw = self.$field.to_raw();
                     present |= u32::from(raw.is_some()) << Position::$field as u32;
-                    raw.unwrap_or(0)
-                }),*];
-                (values, present)
+                    *$field = raw.unwrap_or(0);
+                )*
+                present
             }
 
             fn from_values(
-                values: &[u32; $crate::proto::message::items::MAX_ITEMS],
+                values: &$crate::proto::message::items::Values,
                 #[allow(unused_variables)] present: $crate::proto::message::items::Present,
             ) -> Self {
                 // Each field's position in the table, by name; only optional ones ask.

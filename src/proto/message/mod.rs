@@ -24,7 +24,7 @@ use crate::proto::xml::number::NumberError;
 use crate::proto::xml::reader::{Tokenizer, XmlError};
 use crate::proto::xml::writer::{DocumentWriter, WriteError};
 use crate::proto::xml::{Envelope, Items, StructureError, read_tokens};
-use items::{ItemSet, ItemSpec, Kind, item_set, parse_text, read_values, write_item};
+use items::{ItemSet, ItemSpec, Kind, MAX_ITEMS, item_set, parse_text, read_values, write_values};
 
 /// Longest body a valid request encodes to: a 1003 request with [`MAX_NAV_POINTS`]
 /// waypoints whose every number has its longest text. A receiver that accepts bodies this
@@ -33,6 +33,21 @@ pub const MAX_REQUEST_LEN: usize = 4608;
 
 /// The `Command` of every message other than Type 2 and Type 0.
 const DEFAULT_COMMAND: i32 = 1;
+
+/// The motion command's one item, `Value`: a float (a speed or a height).
+const MOTION_VALUE_FLOAT: ItemSpec = ItemSpec {
+    name: "Value",
+    kind: Kind::Float,
+    required: true,
+};
+
+/// The motion command's one item, `Value`, for a gait: an integer. Read as a float, a large
+/// one would be rounded.
+const MOTION_VALUE_INT: ItemSpec = ItemSpec {
+    name: "Value",
+    kind: Kind::Int,
+    required: true,
+};
 
 /// Why a body could not be decoded into a message. The frame was consumed whole, so the
 /// connection stays usable.
@@ -244,25 +259,44 @@ impl Request {
     /// Writes the XML body into `out`; returns its length.
     pub fn encode(&self, time: &Timestamp, out: &mut [u8]) -> Result<usize, WriteError> {
         let mut doc = DocumentWriter::begin(out, self.message_type().raw(), self.command(), time)?;
-        match self {
+        // Every block is written by one call, from its table and values.
+        let mut values = [0; MAX_ITEMS];
+        let (spec, present) = match self {
             Self::NavTask(task) => {
                 for point in &task.points {
-                    point.write_items(&mut doc)?;
+                    let (spec, present) = point.to_block(&mut values);
+                    write_values(&mut doc, spec, &values, present)?;
                     doc.end_items_block()?;
                 }
+                (&[][..], 0)
             }
-            Self::Light(light) => light.write_items(&mut doc)?,
-            Self::Motion(motion) => match motion.value() {
-                MotionValue::Float(v) => write_item(&mut doc, "Value", Kind::Float, v.to_bits())?,
-                MotionValue::Int(v) => write_item(&mut doc, "Value", Kind::Int, v as u32)?,
-            },
-            Self::Relocalize(pose) => pose.write_items(&mut doc)?,
+            Self::Light(light) => light.to_block(&mut values),
+            Self::Motion(motion) => {
+                let [value, ..] = &mut values;
+                let spec = match motion.value() {
+                    MotionValue::Float(v) => {
+                        *value = v.to_bits();
+                        &MOTION_VALUE_FLOAT
+                    }
+                    MotionValue::Int(v) => {
+                        *value = v as u32;
+                        &MOTION_VALUE_INT
+                    }
+                };
+                (core::slice::from_ref(spec), 1)
+            }
+            Self::Relocalize(pose) => pose.to_block(&mut values),
             Self::Status
             | Self::CancelNav
             | Self::NavStatus
             | Self::MotorTemperatures
             | Self::Battery
-            | Self::Perception => {}
+            | Self::Perception => (&[][..], 0),
+        };
+        // Nothing present writes nothing; the call is skipped (a 1003 request, whose blocks
+        // are written above, measured faster for it).
+        if present != 0 {
+            write_values(&mut doc, spec, &values, present)?;
         }
         doc.finish()
     }
@@ -372,18 +406,21 @@ impl Response {
     /// Writes the XML body into `out`; returns its length.
     pub fn encode(&self, time: &Timestamp, out: &mut [u8]) -> Result<usize, WriteError> {
         let mut doc = DocumentWriter::begin(out, self.message_type().raw(), self.command(), time)?;
-        match self {
-            Self::Status(m) => m.write_items(&mut doc)?,
-            Self::NavResult(m) => m.write_items(&mut doc)?,
-            Self::CancelNav(m) | Self::Light(m) => m.write_items(&mut doc)?,
-            Self::NavStatus(m) => m.write_items(&mut doc)?,
-            Self::MotorTemperatures(m) => m.write_items(&mut doc)?,
-            Self::Motion(_, m) => m.write_items(&mut doc)?,
-            Self::Battery(m) => m.write_items(&mut doc)?,
-            Self::Perception(m) => m.write_items(&mut doc)?,
-            Self::Relocalize(m) => m.write_items(&mut doc)?,
-            Self::RequestError(m) => m.write_items(&mut doc)?,
-        }
+        // Every answer's block is written by one call, from its table and values.
+        let mut values = [0; MAX_ITEMS];
+        let (spec, present) = match self {
+            Self::Status(m) => m.to_block(&mut values),
+            Self::NavResult(m) => m.to_block(&mut values),
+            Self::CancelNav(m) | Self::Light(m) => m.to_block(&mut values),
+            Self::NavStatus(m) => m.to_block(&mut values),
+            Self::MotorTemperatures(m) => m.to_block(&mut values),
+            Self::Motion(_, m) => m.to_block(&mut values),
+            Self::Battery(m) => m.to_block(&mut values),
+            Self::Perception(m) => m.to_block(&mut values),
+            Self::Relocalize(m) => m.to_block(&mut values),
+            Self::RequestError(m) => m.to_block(&mut values),
+        };
+        write_values(&mut doc, spec, &values, present)?;
         doc.finish()
     }
 
@@ -465,21 +502,15 @@ impl Response {
 
 fn read_motion(command: i32, items: &mut Items<'_>) -> Result<MotionCommand, DecodeError> {
     let code = MotionCommandCode::from_raw(command);
-    // A gait number is an int (docs/protocol.md, "Type 2: motion control"); reading it as a
-    // float would round large ones.
-    let spec = ItemSpec {
-        name: "Value",
-        kind: match code {
-            MotionCommandCode::SwitchGait => Kind::Int,
-            _ => Kind::Float,
-        },
-        required: true,
+    let spec = match code {
+        MotionCommandCode::SwitchGait => &MOTION_VALUE_INT,
+        _ => &MOTION_VALUE_FLOAT,
     };
     let mut value = None;
     for item in items {
         let item = item?;
         if item.name == b"Value" {
-            value = Some(parse_text(item.text, &spec)?);
+            value = Some(parse_text(item.text, spec)?);
         }
     }
     let bits = value.ok_or(DecodeError::MissingItem("Value"))?;
