@@ -1033,3 +1033,39 @@ fn commands_beyond_the_protocol_are_decoded_always_and_sent_only_with_the_featur
     }
     assert!(!MotionCommand::ZeroVelocity.code().is_vendor_extension());
 }
+
+#[test]
+fn byte_items_out_of_range_are_refused_by_both_paths() {
+    use x30_panel::proto::xml::number::NumberError;
+    let base = "<PatrolDevice>\n  <Type>1101</Type>\n  <Command>1</Command>\n  <Time>2023-01-01 00:00:00</Time>\n  <Items>\n    <Red>R</Red>\n    <Green>0</Green>\n    <Blue>0</Blue>\n    <PER>0</PER>\n    <LUM>50</LUM>\n  </Items>\n</PatrolDevice>";
+    for (text, expected) in [
+        ("0", Ok(0)),
+        ("255", Ok(255)),
+        ("+7", Ok(7)),
+        ("256", Err(NumberError::OutOfRange)),
+        ("-1", Err(NumberError::OutOfRange)),
+        ("2147483648", Err(NumberError::OutOfRange)),
+        ("99999999999", Err(NumberError::OutOfRange)),
+    ] {
+        let xml = base.replace(">R<", &format!(">{text}<"));
+        let fast = Request::decode(xml.as_bytes());
+        assert_eq!(fast, Request::decode_general(xml.as_bytes()), "{text}");
+        match (fast, expected) {
+            (Ok(decoded), Ok(red)) => {
+                let Request::Light(light) = decoded.message else {
+                    panic!("{text}: not a light request");
+                };
+                assert_eq!(light.red, red, "{text}");
+            }
+            (Err(error), Err(number)) => assert_eq!(
+                error,
+                DecodeError::BadItem {
+                    item: "Red",
+                    error: number
+                },
+                "{text}"
+            ),
+            (got, want) => panic!("{text}: got {got:?}, want {want:?}"),
+        }
+    }
+}
