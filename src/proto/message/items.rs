@@ -1,10 +1,11 @@
 //! How typed fields become `<Items>` children and back.
 //!
 //! Every item is an integer or a float on the wire, so a message's items are described by
-//! a table of [`ItemSpec`]s and carried through one array of wire values with a mask of
-//! those present: one reader and one writer serve every message, and each message adds only
-//! its table and the conversion between its fields and that array. The `item_set!` macro writes both from a struct
-//! definition that names each field's element, so the list of items is written down once.
+//! a table of [`ItemSpec`]s and carried through one array of wire values ([`Values`]) with
+//! a mask of those present ([`Present`]): one reader and one writer serve every message,
+//! and each message adds only its table and the conversion between its fields and that
+//! array. The `item_set!` macro writes both from a struct definition that names each
+//! field's element, so the list of items is written down once.
 //! Keeping per-message code this small is what lets the whole codec fit a few KiB of flash.
 
 use super::DecodeError;
@@ -41,7 +42,7 @@ pub struct ItemSpec {
 pub type Raw = Option<u32>;
 
 /// Which items of a table are present: bit `i` for the table's item `i`. Tables hold at most
-/// 32 items (checked where each is defined), so one word, set and tested in one
+/// [`MAX_ITEMS`] (checked where each is defined), so one word, set and tested in one
 /// instruction, replaces a presence flag beside every value.
 pub type Present = u32;
 
@@ -132,7 +133,7 @@ pub struct Table {
 }
 
 impl Table {
-    /// The table of `spec`. Fails the build for a table of more than [`MAX_ITEMS`] items.
+    /// The table of `spec`.
     pub const fn of(spec: &'static [ItemSpec]) -> Self {
         Self {
             spec,
@@ -144,10 +145,6 @@ impl Table {
 
 /// Which items of `spec` are required.
 const fn required_items(spec: &[ItemSpec]) -> Present {
-    assert!(
-        spec.len() <= MAX_ITEMS,
-        "an item table holds at most 32 items"
-    );
     let mut mask = 0;
     let mut rest = spec;
     let mut bit = 1;
@@ -266,7 +263,7 @@ pub(crate) fn write_values(
 pub(crate) fn read_values(
     items: &mut Items<'_>,
     table: &Table,
-) -> Result<([u32; MAX_ITEMS], Present), DecodeError> {
+) -> Result<(Values, Present), DecodeError> {
     let Table {
         spec,
         names,
@@ -378,6 +375,12 @@ macro_rules! item_set {
         pub struct $name {
             $( $(#[$fmeta])* pub $field: $ty, )*
         }
+
+        // One bit of `Present` per item.
+        const _: () = assert!(
+            [$($wire),*].len() <= $crate::proto::message::items::MAX_ITEMS,
+            "an item table holds at most 32 items"
+        );
 
         impl $crate::proto::message::items::ItemSet for $name {
             const SPEC: &'static [$crate::proto::message::items::ItemSpec] = &[$(
