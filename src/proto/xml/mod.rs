@@ -228,9 +228,7 @@ fn header_text<'a>(
     tokens: &mut Tokenizer<'a>,
     name: &'static str,
 ) -> Result<&'a [u8], StructureError> {
-    element_text(tokens)?
-        .map(<[u8]>::trim_ascii)
-        .ok_or(StructureError::NotText(name))
+    element_text(tokens)?.ok_or(StructureError::NotText(name))
 }
 
 /// The header elements read so far.
@@ -432,10 +430,9 @@ impl<'a> Iterator for Items<'a> {
                 }
             };
             return Some(match token {
-                Token::Start(name) => element_text(&mut self.tokens).map(|text| Item {
-                    name,
-                    text: text.map(<[u8]>::trim_ascii),
-                }),
+                Token::Start(name) => {
+                    element_text(&mut self.tokens).map(|text| Item { name, text })
+                }
                 Token::Empty(name) => Ok(Item {
                     name,
                     text: Some(&[]),

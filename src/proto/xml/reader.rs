@@ -671,8 +671,9 @@ fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
     }
 }
 
-/// Content of a simple element after its start tag: `Some(text)` when it holds only text
-/// (or nothing), `None` when it holds child elements or comments split its text.
+/// Content of a simple element after its start tag: `Some(text)`, with surrounding
+/// whitespace removed, when it holds only text (or nothing); `None` when it holds child
+/// elements or comments split its text.
 ///
 /// Consumes everything up to and including the element's end tag.
 pub fn element_text<'a>(tokens: &mut Tokenizer<'a>) -> Result<Option<&'a [u8]>, XmlError> {
@@ -681,7 +682,9 @@ pub fn element_text<'a>(tokens: &mut Tokenizer<'a>) -> Result<Option<&'a [u8]>, 
     let mut seen_text = false;
     loop {
         match tokens.next_token()? {
-            Some(Token::End(_)) if tokens.depth() < depth => return Ok(text),
+            Some(Token::End(_)) if tokens.depth() < depth => {
+                return Ok(text.map(<[u8]>::trim_ascii));
+            }
             // Whitespace around a comment inside a value is layout, not part of the value.
             Some(Token::Text(t)) if t.iter().all(u8::is_ascii_whitespace) => {
                 if !seen_text && text.is_some_and(<[u8]>::is_empty) {
