@@ -509,11 +509,11 @@ fn read_motion(command: i32, items: &mut Items<'_>) -> Result<MotionCommand, Dec
     let mut value = None;
     for item in items {
         let item = item?;
-        if item.name == b"Value" {
+        if item.name == spec.name.as_bytes() {
             value = Some(parse_text(item.text, spec)?);
         }
     }
-    let bits = value.ok_or(DecodeError::MissingItem("Value"))?;
+    let bits = value.ok_or(DecodeError::MissingItem(spec.name))?;
     match code {
         MotionCommandCode::SwitchGait => {
             Ok(MotionCommand::SwitchGait(MotionGait::from_raw(bits as i32)))
