@@ -4,6 +4,7 @@
 
 use embassy_futures::select::{Either, select};
 use embassy_net::Stack;
+use embassy_sync::once_lock::OnceLock;
 use embedded_io_async::{Read, Write};
 use embedded_storage_async::nor_flash::NorFlash;
 use static_cell::ConstStaticCell;
@@ -17,11 +18,22 @@ use x30_panel::settings::{self, LoadProblem, Settings};
 
 use super::net::{self, LinkBuffers, SocketBuffers};
 
+// `SHARED` and `DESK` are built on first use rather than by a `const fn` in their
+// statics: a constant initializer with a single byte that is not zero (an `Option`'s
+// `None` niche) puts the whole value in `.data`, whose image the startup code copies from
+// flash, 10 KiB for these two; an `OnceLock` starts as zeros and costs no flash.
+
 /// What the board and the application share.
-pub static SHARED: Shared = Shared::new();
+pub fn shared() -> &'static Shared {
+    static SHARED: OnceLock<Shared> = OnceLock::new();
+    SHARED.get_or_init(Shared::new)
+}
 
 /// Where the console, which owns the settings, takes the web page's changes.
-pub static DESK: Desk = Desk::new();
+pub fn desk() -> &'static Desk {
+    static DESK: OnceLock<Desk> = OnceLock::new();
+    DESK.get_or_init(Desk::new)
+}
 
 /// The socket buffers of the three connections to the robot.
 static LINK_BUFFERS: ConstStaticCell<LinkBuffers> = ConstStaticCell::new([
@@ -40,7 +52,7 @@ pub async fn load_settings<F: NorFlash>(
     let (settings, problem) = settings::load(store, defaults).await;
     if let Some(problem) = problem {
         board_log!(warn, "settings: {:?}", problem);
-        SHARED.set_settings_lost(problem.is_loss());
+        shared().set_settings_lost(problem.is_loss());
     }
     log_config(settings.config());
     (settings, problem)
@@ -85,7 +97,8 @@ pub async fn run_console<R: Read, W: Write, F: NorFlash>(
     mut settings: Settings,
     problem: Option<LoadProblem>,
 ) -> ! {
-    let _: Reboot = console::run(rx, tx, &mut store, &mut settings, problem, &SHARED, &DESK).await;
+    let _: Reboot =
+        console::run(rx, tx, &mut store, &mut settings, problem, shared(), desk()).await;
     board_log!(info, "rebooting, as asked on the console");
     cortex_m::peripheral::SCB::sys_reset()
 }
@@ -94,7 +107,7 @@ pub async fn run_console<R: Read, W: Write, F: NorFlash>(
 pub async fn run_app(stack: Stack<'static>, config: &Config) -> ! {
     let buffers = LINK_BUFFERS.take();
     let mut connections = net::connections(stack, net::endpoint(config.robot), buffers);
-    app::run(config, &mut connections, &SHARED).await
+    app::run(config, &mut connections, shared()).await
 }
 
 /// Tells the application and the log whether the board has a network: a link and an
@@ -119,12 +132,12 @@ pub async fn network_watch_task(stack: Stack<'static>) -> ! {
                 }
                 None => board_log!(info, "network up"),
             }
-            SHARED.set_board_address(address);
-            SHARED.set_network(NetworkState::Up);
+            shared().set_board_address(address);
+            shared().set_network(NetworkState::Up);
             // A lost lease counts as no network too.
             select(stack.wait_link_down(), stack.wait_config_down()).await;
-            SHARED.set_network(NetworkState::Down);
-            SHARED.set_board_address(None);
+            shared().set_network(NetworkState::Down);
+            shared().set_board_address(None);
         }
         board_log!(warn, "network down");
     }

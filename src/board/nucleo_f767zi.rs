@@ -205,15 +205,15 @@ pub async fn run(spawner: Spawner) -> ! {
 
     // Each task is spawned once: a failure is a bug, and the panic stops the firmware (and
     // the halted core stops feeding the watchdog, which resets the board).
-    spawner.spawn(unwrap!(watchdog_task(dog, &glue::SHARED)));
+    spawner.spawn(unwrap!(watchdog_task(dog, glue::shared())));
     spawner.spawn(unwrap!(network_task(runner)));
     spawner.spawn(unwrap!(glue::network_watch_task(stack)));
-    spawner.spawn(unwrap!(led_task(leds, &glue::SHARED)));
+    spawner.spawn(unwrap!(led_task(leds, glue::shared())));
     spawner.spawn(unwrap!(button_task(
         buttons,
         config.debounce,
         config.estop_input,
-        &glue::SHARED
+        glue::shared()
     )));
     spawner.spawn(unwrap!(console_task(
         console_rx, console_tx, store, settings, problem

@@ -38,7 +38,7 @@ use picoserve::{ResponseSent, Router, Timeouts};
 use x30_panel::settings::Settings;
 use x30_panel::web::{self, FORM_MAX, Posted};
 
-use super::glue::{DESK, SHARED};
+use super::glue::{desk, shared};
 
 /// The page's TCP port.
 pub const PORT: u16 = 80;
@@ -144,7 +144,7 @@ impl RequestHandlerService for Status {
         request: Request<'_, R>,
         response_writer: W,
     ) -> Result<ResponseSent, W::Error> {
-        let snapshot = SHARED.snapshot();
+        let snapshot = shared().snapshot();
         let now = Instant::now();
         let body = |out: &mut fmt::Formatter<'_>| web::write_status(snapshot.as_ref(), now, out);
         answer(request, response_writer, StatusCode::OK, JSON, body).await
@@ -177,7 +177,7 @@ async fn settings_task() -> ! {
     loop {
         FORM_READY.wait().await;
         let form = FORM.lock().await;
-        let posted = web::post_settings(&DESK, &form).await;
+        let posted = web::post_settings(desk(), &form).await;
         drop(form);
         POSTED.signal(posted);
     }
@@ -251,7 +251,7 @@ impl RequestHandlerService for PostSettings {
 /// Puts the console's settings, as they are now, in `shown`.
 fn show_settings(shown: &mut heapless::Vec<Settings, 1>) {
     shown.clear();
-    if let Some(settings) = DESK.settings() {
+    if let Some(settings) = desk().settings() {
         // Room for one, and `shown` was just emptied.
         let _ = shown.push(settings);
     }

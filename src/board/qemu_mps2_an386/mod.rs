@@ -88,10 +88,10 @@ pub async fn run(spawner: Spawner) -> ! {
     // stops the firmware.
     spawner.spawn(network_task(runner).expect("network task"));
     spawner.spawn(glue::network_watch_task(stack).expect("network watch task"));
-    spawner.spawn(led_task(&glue::SHARED).expect("LED task"));
+    spawner.spawn(led_task(glue::shared()).expect("LED task"));
     // UART0 only brings button lines; nothing is sent on it.
     let (panel_rx, _) = UART0.take().expect("UART0 is free");
-    spawner.spawn(panel_task(panel_rx, &glue::SHARED).expect("virtual panel task"));
+    spawner.spawn(panel_task(panel_rx, glue::shared()).expect("virtual panel task"));
     let (console_rx, console_tx) = UART1.take().expect("UART1 is free");
     spawner.spawn(
         console_task(console_rx, console_tx, store, settings, problem).expect("console task"),
