@@ -7,7 +7,7 @@ use embassy_net::Stack;
 use embassy_sync::once_lock::OnceLock;
 use embedded_io_async::{Read, Write};
 use embedded_storage_async::nor_flash::NorFlash;
-use static_cell::ConstStaticCell;
+use static_cell::{ConstStaticCell, StaticCell};
 use x30_panel::app::{self, Shared};
 use x30_panel::config::{Cidr, Config, Network};
 use x30_panel::console::{self, Reboot};
@@ -43,19 +43,25 @@ static LINK_BUFFERS: ConstStaticCell<LinkBuffers> = ConstStaticCell::new([
 ]);
 
 /// Loads the saved settings over `defaults` and logs the configuration they give; the
-/// board's first step, before its network and buttons are set up from them. A store that
-/// cannot be read leaves the defaults in place and the fault LED blinking until a save.
+/// board's first step, before its network and buttons are set up from them; call once. A
+/// store that cannot be read leaves the defaults in place and the fault LED blinking until
+/// a save.
+///
+/// The settings (4 KiB) are kept in a static and handed on by reference: moved by value
+/// into the console's task, each async function on the way would keep its own copy in its
+/// future, itself a static.
 pub async fn load_settings<F: NorFlash>(
     store: &mut Store<F>,
     defaults: Config,
-) -> (Settings, Option<LoadProblem>) {
+) -> (&'static mut Settings, Option<LoadProblem>) {
+    static SETTINGS: StaticCell<Settings> = StaticCell::new();
     let (settings, problem) = settings::load(store, defaults).await;
     if let Some(problem) = problem {
         board_log!(warn, "settings: {:?}", problem);
         shared().set_settings_lost(problem.is_loss());
     }
     log_config(settings.config());
-    (settings, problem)
+    (SETTINGS.init(settings), problem)
 }
 
 /// Logs the configuration the board runs with: the robot and the network.
@@ -94,11 +100,10 @@ pub async fn run_console<R: Read, W: Write, F: NorFlash>(
     rx: R,
     tx: W,
     mut store: Store<F>,
-    mut settings: Settings,
+    settings: &mut Settings,
     problem: Option<LoadProblem>,
 ) -> ! {
-    let _: Reboot =
-        console::run(rx, tx, &mut store, &mut settings, problem, shared(), desk()).await;
+    let _: Reboot = console::run(rx, tx, &mut store, settings, problem, shared(), desk()).await;
     board_log!(info, "rebooting, as asked on the console");
     cortex_m::peripheral::SCB::sys_reset()
 }

@@ -88,7 +88,7 @@ pub async fn console_task(
     rx: BufferedUartRx<'static>,
     tx: ConsoleTx,
     store: Store<SettingsFlash>,
-    settings: Settings,
+    settings: &'static mut Settings,
     problem: Option<LoadProblem>,
 ) -> ! {
     glue::run_console(rx, tx, store, settings, problem).await

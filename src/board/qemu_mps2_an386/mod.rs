@@ -228,7 +228,7 @@ async fn console_task(
     rx: UartRx,
     tx: UartTx,
     store: Store<SettingsFlash>,
-    settings: Settings,
+    settings: &'static mut Settings,
     problem: Option<LoadProblem>,
 ) -> ! {
     glue::run_console(rx, tx, store, settings, problem).await
