@@ -521,15 +521,22 @@ async fn the_web_pages_changes_are_saved_by_the_console_with_the_same_checks() {
     let flash = flash();
     let shared = Shared::new();
     let (screen, result) = with_console(&flash, &shared, "set repeat-ms 300\r", async |desk| {
-        let mut edited = desk.settings().expect("published");
+        let published = desk.settings().expect("published");
         assert!(
-            edited.unsaved().contains(Key::Repeat),
+            published.unsaved().contains(Key::Repeat),
             "the typed change is published"
         );
-        // The page starts from what is saved.
-        edited.revert();
-        edited.set(Key::SpeedForward, "0.3").unwrap();
-        desk.save(edited).await
+        desk.save_with(|edited| {
+            assert_eq!(
+                edited, &published,
+                "edits start from the published settings"
+            );
+            // The page starts from what is saved.
+            edited.revert();
+            edited.set(Key::SpeedForward, "0.3").unwrap();
+            Ok::<_, Refused>(())
+        })
+        .await
     })
     .await;
     let saved_keys = result.expect("saved").keys;
@@ -556,22 +563,36 @@ async fn the_web_pages_changes_are_saved_by_the_console_with_the_same_checks() {
         })
         .unwrap();
     let before = flash.snapshot();
-    let (screen, result) = with_console(&flash, &shared, "", async |desk| {
-        let mut edited = desk.settings().expect("published");
-        edited.set(Key::SpeedForward, "0.4").unwrap();
-        desk.save(edited).await
-    })
-    .await;
+    let (screen, (result, after)) =
+        with_console(&flash, &shared, "set repeat-ms 300\r", async |desk| {
+            let result = desk
+                .save_with(|edited| {
+                    edited.set(Key::SpeedForward, "0.4").unwrap();
+                    Ok::<_, Refused>(())
+                })
+                .await;
+            // Let the console publish its settings again.
+            tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+            (result, desk.settings().expect("published"))
+        })
+        .await;
     assert_eq!(result, Err(Refused::Busy(Busy::StopPending)));
     assert!(screen.contains("web page: not saved: "), "{screen:?}");
+    assert!(!screen.contains("were dropped"), "{screen:?}");
     assert_eq!(flash.snapshot(), before, "nothing written");
+    // The console's own edits are back, the page's are gone.
+    assert_eq!(
+        after.unsaved().iter().collect::<Vec<_>>(),
+        [Key::Repeat],
+        "after a refused save the console keeps what was typed there"
+    );
 }
 
 #[tokio::test(flavor = "current_thread")]
 async fn a_desk_without_an_owner_refuses_at_once() {
     let desk = Desk::new();
-    let settings = Settings::new(Config::default());
-    assert_eq!(desk.save(settings).await, Err(Refused::NoOwner));
+    let saved = desk.save_with(|_| Ok::<_, Refused>(())).await;
+    assert_eq!(saved, Err(Refused::NoOwner));
     assert_eq!(desk.settings(), None);
 }
 

@@ -85,8 +85,8 @@ pub async fn run<R: Read, W: Write, F: NorFlash>(
                 typed
             }
             Either::First(_) => continue,
-            Either::Second(edited) => {
-                web_save(store, settings, edited, desk, shared, &mut answer).await;
+            Either::Second(()) => {
+                web_save(store, settings, desk, shared, &mut answer).await;
                 let _ = answer.push_str(PROMPT);
                 let _ = answer.push_str(editor.line());
                 send(&mut tx, &answer).await;
@@ -141,23 +141,22 @@ pub async fn run<R: Read, W: Write, F: NorFlash>(
 async fn web_save<F: NorFlash>(
     store: &mut Store<F>,
     settings: &mut Settings,
-    edited: Settings,
     desk: &Desk,
     shared: &Shared,
     answer: &mut Answer,
 ) {
-    let typed = core::mem::replace(settings, edited);
+    if !desk.take_edits(settings) {
+        return;
+    }
     let result = desk::save(store, settings, shared).await;
     let _ = write!(answer, "\r\nweb page: ");
     tell_saved(&result, settings, answer);
-    if result.is_err() {
-        *settings = typed;
-    } else if !typed.unsaved().is_empty() {
+    let dropped = desk.answer(settings, result);
+    if !dropped.is_empty() {
         let _ = write!(answer, "changes typed here and not saved were dropped: ");
-        let _ = write!(answer, "{}", typed.unsaved());
+        let _ = write!(answer, "{dropped}");
         let _ = writeln!(answer);
     }
-    desk.answer(result);
 }
 
 /// Writes `text` to the terminal, `\n` as `\r\n`. A terminal that is gone loses it.

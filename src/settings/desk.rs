@@ -2,10 +2,10 @@
 //!
 //! One task owns the settings and their store: the console's ([`crate::console::run`]). It
 //! saves what is typed on the serial port, and it also takes the web page's changes from the
-//! [`Desk`]: the web task reads the settings the owner published there, applies a form to a
-//! copy, and hands the copy back to be saved; the owner saves it as it would a `save` typed
-//! on the console, with the same checks, and answers. So there is one store, one set of
-//! edits and one rule for when saving is allowed, whoever asks.
+//! [`Desk`]: the web task applies a form to a copy of the settings the owner published there
+//! and leaves the copy on the desk ([`Desk::save_with`]); the owner saves it as it would a
+//! `save` typed on the console, with the same checks, and answers. So there is one store,
+//! one set of edits and one rule for when saving is allowed, whoever asks.
 
 use core::cell::RefCell;
 use core::fmt;
@@ -135,13 +135,20 @@ pub async fn save<F: NorFlash>(
 }
 
 /// Where the settings' owner publishes them and takes other tasks' edits to save.
+///
+/// Settings are 4 KiB, and every copy held across an `await` takes that much of a task's
+/// future, which the board keeps in static RAM. So edits stay on the desk: the owner swaps
+/// them with its own settings in place ([`Desk::take_edits`]), and its own wait on the desk
+/// there until the answer ([`Desk::answer`]).
 pub struct Desk {
     /// The owner's settings, as of its last change.
     published: BlockingMutex<CriticalSectionRawMutex, RefCell<Option<Settings>>>,
     /// One request at a time.
     turn: Mutex<CriticalSectionRawMutex, ()>,
-    /// Edited settings to save.
-    requests: Signal<CriticalSectionRawMutex, Settings>,
+    /// Edited settings to save; while they are saved, the owner's, set aside.
+    pending: BlockingMutex<CriticalSectionRawMutex, RefCell<Option<Settings>>>,
+    /// Rings when edits are pending.
+    requests: Signal<CriticalSectionRawMutex, ()>,
     /// The owner's answer.
     replies: Signal<CriticalSectionRawMutex, Result<Saved, Refused>>,
 }
@@ -158,6 +165,7 @@ impl Desk {
         Self {
             published: BlockingMutex::new(RefCell::new(None)),
             turn: Mutex::new(()),
+            pending: BlockingMutex::new(RefCell::new(None)),
             requests: Signal::new(),
             replies: Signal::new(),
         }
@@ -168,16 +176,27 @@ impl Desk {
         self.published.lock(|cell| cell.borrow().clone())
     }
 
-    /// Asks the owner to save `edited` (its settings with changes made on a copy) and waits
-    /// for the answer.
-    pub async fn save(&self, edited: Settings) -> Result<Saved, Refused> {
+    /// Has the owner save its settings as `edit` changes them, and waits for the answer.
+    /// `edit` works on a copy of the published settings, before anything is sent; its error
+    /// is returned as it is, and then nothing is saved.
+    pub async fn save_with<E: From<Refused>>(
+        &self,
+        edit: impl FnOnce(&mut Settings) -> Result<(), E>,
+    ) -> Result<Saved, E> {
         if self.published.lock(|cell| cell.borrow().is_none()) {
-            return Err(Refused::NoOwner);
+            return Err(Refused::NoOwner.into());
         }
         let _turn = self.turn.lock().await;
-        self.replies.reset();
-        self.requests.signal(edited);
-        self.replies.wait().await
+        // The copy lives in this block only: held across the wait below, it would take
+        // 4 KiB of the caller's future.
+        {
+            let mut edited = self.settings().ok_or(Refused::NoOwner)?;
+            edit(&mut edited)?;
+            self.replies.reset();
+            self.pending.lock(|cell| *cell.borrow_mut() = Some(edited));
+        }
+        self.requests.signal(());
+        Ok(self.replies.wait().await?)
     }
 
     /// The owner: publishes its settings.
@@ -186,13 +205,39 @@ impl Desk {
             .lock(|cell| *cell.borrow_mut() = Some(settings.clone()));
     }
 
-    /// The owner: waits for edits to save.
-    pub async fn request(&self) -> Settings {
+    /// The owner: waits until edits are pending.
+    pub async fn request(&self) {
         self.requests.wait().await
     }
 
-    /// The owner: answers the request it took.
-    pub fn answer(&self, result: Result<Saved, Refused>) {
+    /// The owner: puts the pending edits in `settings`, and sets the settings they replace
+    /// aside on the desk; `false` (and nothing changed) if no edits are pending.
+    pub fn take_edits(&self, settings: &mut Settings) -> bool {
+        self.pending.lock(|cell| match cell.borrow_mut().as_mut() {
+            Some(edits) => {
+                core::mem::swap(edits, settings);
+                true
+            }
+            None => false,
+        })
+    }
+
+    /// The owner: answers the request whose edits it took. A refused save puts the settings
+    /// set aside back in `settings`; a save drops them, and this returns their changes that
+    /// were not saved (so lost), if any.
+    pub fn answer(&self, settings: &mut Settings, result: Result<Saved, Refused>) -> Keys {
+        let lost = self.pending.lock(|cell| {
+            let set_aside = cell.borrow_mut().take();
+            match (set_aside, &result) {
+                (Some(own), Err(_)) => {
+                    *settings = own;
+                    Keys::EMPTY
+                }
+                (Some(own), Ok(_)) => own.unsaved(),
+                (None, _) => Keys::EMPTY,
+            }
+        });
         self.replies.signal(result);
+        lost
     }
 }

@@ -145,6 +145,12 @@ enum Problem {
     Refused(Refused),
 }
 
+impl From<Refused> for Problem {
+    fn from(refused: Refused) -> Self {
+        Self::Refused(refused)
+    }
+}
+
 impl Problem {
     /// The HTTP status that tells it.
     fn status(&self) -> u16 {
@@ -210,18 +216,17 @@ async fn apply(desk: &Desk, body: &[u8]) -> Result<Saved, Problem> {
         .config()
         .web_pin;
     check_pin(saved_pin, pin).await?;
-    let edited = {
-        let mut settings = desk.settings().ok_or(Problem::NotAvailable)?;
+    desk.save_with(|settings| {
         settings.revert();
         for field in fields(body) {
             let (mut name, mut value) = ([0; NAME_MAX], [0; MAX_VALUE]);
             if let (Field::Key(key), text) = field.decode(&mut name, &mut value)? {
-                change(&mut settings, key, text.trim())?;
+                change(settings, key, text.trim())?;
             }
         }
-        settings
-    };
-    desk.save(edited).await.map_err(Problem::Refused)
+        Ok(())
+    })
+    .await
 }
 
 /// Checks every field of `body` (escapes, names, no field twice) before anything changes;
