@@ -120,7 +120,8 @@ pub enum Command {
     /// Walk, turn or strafe for a while (Type 2 repeated at 4 Hz), then zero velocity.
     ///
     /// The command is repeated every 250 ms (the document asks for 3-5 Hz) for the
-    /// duration, then zero velocity (Command 6) is sent, also on Ctrl-C and on errors.
+    /// duration, without waiting for answers but not while one is 500 ms overdue; then
+    /// zero velocity (Command 6) is sent at once, also on Ctrl-C and on errors.
     Move(MoveArgs),
     /// Live status (1002 + 2001 + 2002), refreshed until Ctrl-C or --count refreshes.
     Watch(WatchArgs),

@@ -42,8 +42,8 @@ pub const MAX_FRAME_LEN: usize = 16 * 1024;
 pub type Decoder = FrameDecoder<MAX_FRAME_LEN>;
 
 /// Requests one connection may have written and not seen answered; beyond this the oldest
-/// is given up on. The commands wait for each answer before sending the next request, so
-/// this is ample.
+/// is given up on. Only `move` sends before the last answer is in, and it stops sending
+/// while an answer is overdue (two or three requests at 4 Hz), so this is ample.
 const MAX_OUTSTANDING: usize = 8;
 
 /// Message IDs of requests given up on that are remembered, so their late answers are
@@ -331,16 +331,8 @@ impl Connection {
     ) -> Result<Answer, Error> {
         let started = Instant::now();
         let ty = message_type.raw();
-        if let Some(at) = self.early.iter().position(|(id, _)| *id == message_id) {
-            return self.early.remove(at).1;
-        }
-        if !self.outstanding.contains(message_id) {
-            return Err(Error::Io {
-                context: format!("waiting for the answer to Type {ty}"),
-                source: io::Error::other(format!(
-                    "no request with message ID {message_id} is outstanding"
-                )),
-            });
+        if let Some(settled) = self.settled(message_id, ty) {
+            return settled;
         }
         let result = loop {
             if let Some(answer) = self.next_answer(message_id, message_type) {
@@ -361,48 +353,100 @@ impl Connection {
                 }
                 slice = slice.min(left);
             }
-            // A zero read timeout is an error; a millisecond is the shortest useful one.
-            let _ = self
-                .stream
-                .set_read_timeout(Some(slice.max(Duration::from_millis(1))));
-            let spare = self.decoder.spare();
-            if spare.is_empty() {
-                // Cannot happen (the decoder skips frames that would not fit), but an
-                // empty read buffer would look like a closed connection.
-                self.decoder.clear();
-                continue;
-            }
-            match self.stream.read(spare) {
-                Ok(0) => {
-                    break Err(Error::Closed {
-                        message_type: ty,
-                        source: None,
-                    });
-                }
-                Ok(n) => self.decoder.commit(n),
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::WouldBlock
-                            | io::ErrorKind::TimedOut
-                            | io::ErrorKind::Interrupted
-                    ) => {}
-                Err(e) if is_disconnect(&e) => {
-                    break Err(Error::Closed {
-                        message_type: ty,
-                        source: Some(e),
-                    });
-                }
-                Err(source) => {
-                    break Err(Error::Io {
-                        context: format!("reading the answer to Type {ty}"),
-                        source,
-                    });
-                }
+            if let Err(e) = self.read_for(slice, ty) {
+                break Err(e);
             }
         };
         self.give_up(message_id);
         result
+    }
+
+    /// Waits for the answer with `message_id` like [`Connection::wait`], but only until
+    /// `until`, or until `stop` returns true (checked at least every 100 ms): then `Ok(None)`,
+    /// and the request stays outstanding, its answer kept for a later call. For a caller
+    /// that has other things to do on time, such as sending the next request.
+    pub fn poll(
+        &mut self,
+        message_id: u16,
+        message_type: MessageType,
+        until: Instant,
+        stop: impl Fn() -> bool,
+    ) -> Result<Option<Answer>, Error> {
+        if let Some(settled) = self.settled(message_id, message_type.raw()) {
+            return settled.map(Some);
+        }
+        loop {
+            if let Some(answer) = self.next_answer(message_id, message_type) {
+                return answer.map(Some);
+            }
+            let left = until.saturating_duration_since(Instant::now());
+            if left.is_zero() || stop() {
+                return Ok(None);
+            }
+            self.read_for(left.min(POLL), message_type.raw())?;
+        }
+    }
+
+    /// Before a wait for the answer with `message_id` to a request of Type `ty`: the answer,
+    /// if it came while another was waited for, or the error of a wait for a request that
+    /// is not outstanding; `None` if the answer is still to come.
+    fn settled(&mut self, message_id: u16, ty: i32) -> Option<Result<Answer, Error>> {
+        if let Some(at) = self.early.iter().position(|(id, _)| *id == message_id) {
+            return Some(self.early.remove(at).1);
+        }
+        if self.outstanding.contains(message_id) {
+            return None;
+        }
+        Some(Err(Error::Io {
+            context: format!("waiting for the answer to Type {ty}"),
+            source: io::Error::other(format!(
+                "no request with message ID {message_id} is outstanding"
+            )),
+        }))
+    }
+
+    /// Reads what the robot sent into the decoder, waiting up to `slice` for it; the error
+    /// names the Type `ty` of the answer being waited for.
+    fn read_for(&mut self, slice: Duration, ty: i32) -> Result<(), Error> {
+        // A zero read timeout is an error; a millisecond is the shortest useful one.
+        let _ = self
+            .stream
+            .set_read_timeout(Some(slice.max(Duration::from_millis(1))));
+        let spare = self.decoder.spare();
+        if spare.is_empty() {
+            // Cannot happen (the decoder skips frames that would not fit), but an empty
+            // read buffer would look like a closed connection.
+            self.decoder.clear();
+            return Ok(());
+        }
+        match self.stream.read(spare) {
+            Ok(0) => Err(Error::Closed {
+                message_type: ty,
+                source: None,
+            }),
+            Ok(n) => {
+                self.decoder.commit(n);
+                Ok(())
+            }
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock
+                        | io::ErrorKind::TimedOut
+                        | io::ErrorKind::Interrupted
+                ) =>
+            {
+                Ok(())
+            }
+            Err(e) if is_disconnect(&e) => Err(Error::Closed {
+                message_type: ty,
+                source: Some(e),
+            }),
+            Err(source) => Err(Error::Io {
+                context: format!("reading the answer to Type {ty}"),
+                source,
+            }),
+        }
     }
 
     /// Gives up on an outstanding request: it is no longer matched, and its late answer,

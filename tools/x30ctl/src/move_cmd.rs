@@ -2,25 +2,34 @@
 //!
 //! The robot keeps moving only while the command is repeated at 3-5 Hz, so it is sent
 //! every 250 ms. Send times are computed from the start on a monotonic clock
-//! (`start + k x 250 ms`), not by sleeping 250 ms after each answer, so answer latency
-//! does not make the rate drift; ticks missed behind a slow answer are skipped, never
-//! sent in a burst. Whatever happens (the duration ends, Ctrl-C, an error), zero velocity
-//! (Command 6) is sent before exiting, on a fresh connection if the old one failed.
+//! (`start + k x 250 ms`), and no command waits for the previous one's answer: answers are
+//! taken in between, so a slow one delays nothing. Like the panel, `move` sends no motion
+//! while an answer is overdue (500 ms), rather than drive a robot that may not hear it,
+//! and gives up once one is `--timeout-ms` late; ticks missed are skipped, never sent in a
+//! burst. Whatever happens (the duration ends, Ctrl-C, an error), zero velocity (Command 6)
+//! is sent at once, whatever answers are still due, on a fresh connection if the old one
+//! failed.
 
+use std::collections::VecDeque;
 use std::thread;
 use std::time::{Duration, Instant};
 
-use x30_panel::proto::codes::MotionCommandCode;
+use x30_panel::client::ANSWER_OVERDUE;
+use x30_panel::proto::codes::{MessageType, MotionCommandCode};
 use x30_panel::proto::message::{MotionCommand, Request};
 
 use crate::cli::MoveArgs;
 use crate::conn::Connection;
 use crate::error::Error;
-use crate::render::{self, emit, note};
+use crate::render::{self, emit, note, warn};
 use crate::{Ctx, Interrupts};
 
 /// Time between repeats: 4 Hz, inside the document's 3-5 Hz.
 pub const PERIOD: Duration = Duration::from_millis(250);
+
+/// An answer not in after this long is overdue, and no motion is sent until it is: the
+/// panel's rule.
+const OVERDUE: Duration = Duration::from_millis(ANSWER_OVERDUE.as_millis());
 
 /// Longest sleep between Ctrl-C checks.
 const SLEEP_SLICE: Duration = Duration::from_millis(20);
@@ -77,43 +86,40 @@ pub fn run(ctx: &Ctx, args: &MoveArgs, interrupts: &Interrupts) -> Result<(), Er
     let mut conn = Some(ctx.connect()?);
     let start = Instant::now();
     let end = start.checked_add(duration).unwrap_or(start);
-    let mut acknowledged = 0u32;
+    let mut sent = Sent::default();
     let mut tick = 0u32;
     let ended = loop {
         let Some(due) = PERIOD.checked_mul(tick).and_then(|t| start.checked_add(t)) else {
             break Ended::Done;
         };
-        if due >= end {
-            // Let the last command run out its period before stopping.
-            if !sleep_until(end, interrupts) {
-                break Ended::Interrupted;
-            }
-            break Ended::Done;
-        }
-        if !sleep_until(due, interrupts) {
-            break Ended::Interrupted;
-        }
         let Some(c) = conn.as_mut() else {
             break Ended::Done;
         };
-        // Ctrl-C must not wait for a slow answer: zero velocity is what matters then.
-        match c.request_unless(&request, || interrupts.count() > 0) {
-            Ok(None) => break Ended::Interrupted,
-            Ok(Some(answer)) => {
-                if ctx.json {
-                    emit(&answer.json());
-                }
-                if let Some(message) = render::failure("move", &answer.response) {
-                    break Ended::Failed(Error::Failed(message));
-                }
-                acknowledged += 1;
+        // Answers are taken while the next command (or the end) is not due yet: a slow
+        // answer delays neither, and the last command runs out its period before stopping.
+        if let Err(e) = sent.take_answers(ctx, c, due.min(end), interrupts) {
+            break failed(&mut conn, e);
+        }
+        if interrupts.count() > 0 {
+            break Ended::Interrupted;
+        }
+        if due >= end {
+            break Ended::Done;
+        }
+        match sent.oldest_wait() {
+            // A robot that answers nothing is not driven for the whole duration.
+            Some(waited) if waited >= ctx.timeout => {
+                break Ended::Failed(Error::Timeout {
+                    waited: ctx.timeout,
+                    message_type: request.message_type().raw(),
+                });
             }
-            Err(e) => {
-                if !e.keeps_connection() {
-                    conn = None;
-                }
-                break Ended::Failed(e);
-            }
+            // Nor blind: like the panel, no motion while an answer is overdue.
+            Some(waited) if waited >= OVERDUE => sent.hold(),
+            _ => match c.send(&request) {
+                Ok(message_id) => sent.pending.push_back((message_id, Instant::now())),
+                Err(e) => break failed(&mut conn, e),
+            },
         }
         // The next tick on the fixed grid that is still ahead, skipping any missed.
         let elapsed = start.elapsed().as_nanos();
@@ -121,7 +127,13 @@ pub fn run(ctx: &Ctx, args: &MoveArgs, interrupts: &Interrupts) -> Result<(), Er
         tick = next.max(tick + 1);
     };
 
-    let stopped = zero_velocity(ctx, conn);
+    // At once, whatever answers are still to come: they are counted after it.
+    let stopped = zero_velocity(ctx, &mut conn);
+    if let Some(c) = conn.as_mut() {
+        // A late refusal changes nothing now that the robot is stopped.
+        let _ = sent.take_answers(ctx, c, Instant::now(), interrupts);
+    }
+    let acknowledged = sent.acknowledged;
     if !ctx.json {
         emit(&summary(&command, duration, acknowledged, &stopped));
     }
@@ -133,13 +145,13 @@ pub fn run(ctx: &Ctx, args: &MoveArgs, interrupts: &Interrupts) -> Result<(), Er
             if stop_error.is_none() {
                 "sent"
             } else {
-                "could NOT be sent"
+                "NOT acknowledged"
             }
         ))),
         Ended::Failed(e) => {
             if let Some(stop_error) = stop_error {
                 note(&format!(
-                    "x30ctl: zero velocity could not be sent: {stop_error}"
+                    "x30ctl: zero velocity was not acknowledged: {stop_error}"
                 ));
             }
             Err(e)
@@ -147,9 +159,77 @@ pub fn run(ctx: &Ctx, args: &MoveArgs, interrupts: &Interrupts) -> Result<(), Er
     }
 }
 
+/// How a `move` ends on `e`; a connection the error leaves unusable is dropped, so zero
+/// velocity goes on a new one.
+fn failed(conn: &mut Option<Connection>, e: Error) -> Ended {
+    if !e.keeps_connection() {
+        *conn = None;
+    }
+    Ended::Failed(e)
+}
+
+/// The motion commands of one `move` that went out, and what became of them.
+#[derive(Default)]
+struct Sent {
+    /// Commands the robot confirmed.
+    acknowledged: u32,
+    /// Commands awaiting their answers, oldest first: message ID and when it was sent.
+    pending: VecDeque<(u16, Instant)>,
+    /// Whether the user was told that commands are held for a late answer.
+    held: bool,
+}
+
+impl Sent {
+    /// Takes the answers that come in until `until` (or Ctrl-C), waiting no longer.
+    fn take_answers(
+        &mut self,
+        ctx: &Ctx,
+        conn: &mut Connection,
+        until: Instant,
+        interrupts: &Interrupts,
+    ) -> Result<(), Error> {
+        loop {
+            let Some(&(message_id, _)) = self.pending.front() else {
+                sleep_until(until, interrupts);
+                return Ok(());
+            };
+            let answer = conn.poll(message_id, MessageType::Motion, until, || {
+                interrupts.count() > 0
+            })?;
+            let Some(answer) = answer else {
+                return Ok(());
+            };
+            self.pending.pop_front();
+            if ctx.json {
+                emit(&answer.json());
+            }
+            if let Some(message) = render::failure("move", &answer.response) {
+                return Err(Error::Failed(message));
+            }
+            self.acknowledged += 1;
+        }
+    }
+
+    /// How long the oldest command not answered yet has waited.
+    fn oldest_wait(&self) -> Option<Duration> {
+        self.pending.front().map(|(_, sent)| sent.elapsed())
+    }
+
+    /// Skips a command because an answer is overdue; says so the first time.
+    fn hold(&mut self) {
+        if !self.held {
+            self.held = true;
+            warn(&format!(
+                "the robot has not answered for {} ms: no motion until it does",
+                OVERDUE.as_millis()
+            ));
+        }
+    }
+}
+
 /// Sends zero velocity, on `conn` if it is still usable, else (or if that fails) on a
-/// new connection.
-fn zero_velocity(ctx: &Ctx, conn: Option<Connection>) -> Result<(), Error> {
+/// new connection, which then replaces it.
+fn zero_velocity(ctx: &Ctx, conn: &mut Option<Connection>) -> Result<(), Error> {
     let request = Request::Motion(MotionCommand::ZeroVelocity);
     let on = |conn: &mut Connection| {
         let answer = conn.request(&request)?;
@@ -161,8 +241,8 @@ fn zero_velocity(ctx: &Ctx, conn: Option<Connection>) -> Result<(), Error> {
             None => Ok(()),
         }
     };
-    if let Some(mut conn) = conn {
-        match on(&mut conn) {
+    if let Some(old) = conn.as_mut() {
+        match on(old) {
             Ok(()) => return Ok(()),
             Err(e @ Error::Failed(_)) => return Err(e),
             Err(e) => note(&format!(
@@ -170,7 +250,8 @@ fn zero_velocity(ctx: &Ctx, conn: Option<Connection>) -> Result<(), Error> {
             )),
         }
     }
-    on(&mut ctx.connect()?)
+    let fresh = conn.insert(ctx.connect()?);
+    on(fresh)
 }
 
 /// The human summary of a `move`.

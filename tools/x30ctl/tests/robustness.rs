@@ -453,11 +453,55 @@ fn move_ctrl_c_does_not_wait_for_a_slow_answer() {
         !requests_of(&sim, 2, Some(6)).is_empty()
     });
     let run = moving.finish(RUN_LIMIT);
+    // The forward command's answer comes before zero velocity's, and counts.
     run.expect_code(130)
-        .stderr_has("move interrupted by Ctrl-C after 0 command(s); zero velocity sent");
+        .stderr_has("move interrupted by Ctrl-C after 1 command(s); zero velocity sent");
     assert!(interrupted.elapsed() < Duration::from_secs(4));
-    // The late answer to the abandoned forward command is expected, not reported.
     assert!(!run.stderr.contains("unsolicited"), "{}", run.stderr);
+}
+
+#[test]
+fn move_stops_on_time_and_drives_no_further_while_the_robot_answers_late() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        delay: Duration::from_millis(3000),
+        ..Faults::default()
+    });
+    let run = x30ctl(
+        &sim,
+        &[
+            "--timeout-ms",
+            "6000",
+            "move",
+            "forward",
+            "--duration",
+            "1.5",
+        ],
+    );
+    // Every answer comes, late: all is acknowledged in the end.
+    run.expect_code(0)
+        .stderr_has("the robot has not answered for 500 ms: no motion until it does")
+        .stdout_has("zero velocity (Command 6) acknowledged");
+    let log = requests_of(&sim, 2, None);
+    let forward: Vec<f64> = log
+        .iter()
+        .filter(|e| e.command == Some(1))
+        .map(|e| e.t)
+        .collect();
+    let stop = log.last().expect("requests");
+    assert_eq!(stop.command, Some(6), "{log:?}");
+    // Zero velocity when the duration ends, not when the pending answers come (3 s).
+    let at = stop.t - forward[0];
+    assert!(
+        (1.3..2.5).contains(&at),
+        "zero velocity after {at} s: {log:?}"
+    );
+    // Commands went out until the first answer was 500 ms overdue, then none.
+    assert!(
+        (2..=3).contains(&forward.len()) && forward.iter().all(|t| t - forward[0] < 0.8),
+        "{log:?}"
+    );
+    run.stdout_has(&format!("{} command(s) acknowledged", forward.len()));
 }
 
 fn type_0_frame(id: u16) -> Vec<u8> {
