@@ -101,7 +101,10 @@ pub enum Command {
     Cancel,
     /// Zero velocity (Type 2, Command 6).
     Stop,
-    /// Soft emergency stop (Type 2, Command 13).
+    /// Soft emergency stop (Type 2, Command 13), sent every 250 ms until a status confirms it.
+    ///
+    /// As the panel does: refusals and late answers change nothing; it ends when a status
+    /// (1002) reports MotionState 6, or with exit status 3 after --timeout-ms without that.
     Estop,
     /// Stop stepping (Type 2, Command 14).
     StopStepping,
@@ -261,7 +264,7 @@ pub struct RouteRunArgs {
     /// Check the route and show what would be sent; send nothing.
     #[arg(long)]
     pub dry_run: bool,
-    /// Send all points in one 1003 request (one <Items> block each, at most 8), as the
+    /// Send all points in one 1003 request (one `<Items>` block each, at most 8), as the
     /// vendor SDK does, instead of one request per point.
     #[arg(long)]
     pub single_request: bool,

@@ -42,9 +42,10 @@ pub const MAX_FRAME_LEN: usize = 16 * 1024;
 pub type Decoder = FrameDecoder<MAX_FRAME_LEN>;
 
 /// Requests one connection may have written and not seen answered; beyond this the oldest
-/// is given up on. Only `move` sends before the last answer is in, and it stops sending
-/// while an answer is overdue (two or three requests at 4 Hz), so this is ample.
-const MAX_OUTSTANDING: usize = 8;
+/// is given up on. Only `move` and `estop` send before the last answer is in: `move` stops
+/// while an answer is overdue (two or three requests at 4 Hz), and `estop` reconnects
+/// after 2 s of silence (nine requests), so this is ample.
+const MAX_OUTSTANDING: usize = 16;
 
 /// Message IDs of requests given up on that are remembered, so their late answers are
 /// skipped quietly; older ones, if they ever come, are reported as unsolicited.

@@ -76,6 +76,14 @@ pub enum Error {
     },
     /// The robot answered and reported a failure.
     Failed(String),
+    /// No status confirmed the soft emergency stop in time, though it was sent again and
+    /// again.
+    EstopUnconfirmed {
+        /// How long it was sent for.
+        waited: Duration,
+        /// How many times Command 13 went out.
+        sent: u32,
+    },
     /// Ctrl-C, after the command cleaned up.
     Interrupted(String),
     /// A route stopped before its end.
@@ -100,6 +108,7 @@ impl Error {
             Self::Resolve { .. }
             | Self::Connect { .. }
             | Self::Timeout { .. }
+            | Self::EstopUnconfirmed { .. }
             | Self::Closed { .. }
             | Self::Io { .. }
             | Self::TypeZero { .. }
@@ -157,6 +166,12 @@ impl fmt::Display for Error {
                     write!(f, "connection to {addr} failed: {}", io_text(source))
                 }
             }
+            Self::EstopUnconfirmed { waited, sent } => write!(
+                f,
+                "no status confirmed soft emergency stop (MotionState 6) within {} ms; \
+                 Command 13 was sent {sent} time(s)",
+                waited.as_millis()
+            ),
             Self::Timeout {
                 waited,
                 message_type,

@@ -10,6 +10,7 @@ mod cli;
 mod conn;
 mod decode_cmd;
 mod error;
+mod estop_cmd;
 mod move_cmd;
 mod nav_cmd;
 mod render;
@@ -116,7 +117,7 @@ fn run(ctx: &Ctx, command: &Command) -> Result<(), Error> {
         Command::NavStatus => simple(ctx, &Request::NavStatus, "nav-status"),
         Command::Cancel => simple(ctx, &Request::CancelNav, "cancel"),
         Command::Stop => motion(ctx, MotionCommand::ZeroVelocity, "stop"),
-        Command::Estop => motion(ctx, MotionCommand::SoftEmergencyStop, "estop"),
+        Command::Estop => estop_cmd::run(ctx, &Interrupts::install()?),
         Command::StopStepping => motion(ctx, MotionCommand::StopStepping, "stop-stepping"),
         Command::LieDown => motion(ctx, MotionCommand::LieDown, "lie-down"),
         Command::Gait { gait } => motion(ctx, MotionCommand::SwitchGait((*gait).into()), "gait"),

@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use common::*;
 use x30_panel::proto::codes::{
-    CommandResult, ErrorStatus, MotionCommandCode, NavOutcome, RequestErrorCode,
+    CommandResult, ErrorStatus, MotionCommandCode, MotionState, NavOutcome, RequestErrorCode,
 };
 use x30_panel::proto::frame::{self, HEADER_LEN};
 use x30_panel::proto::message::{
@@ -591,4 +591,72 @@ fn late_type_0_to_an_abandoned_move_command_is_skipped() {
     );
     assert_eq!(stop, Request::Motion(MotionCommand::ZeroVelocity));
     assert_ne!(forward_id, stop_id);
+}
+
+/// The times (s) at which the simulator received Command 13.
+fn estop_times(sim: &x30_sim::Simulator) -> Vec<f64> {
+    requests_of(sim, 2, Some(13)).iter().map(|e| e.t).collect()
+}
+
+#[test]
+fn estop_is_sent_again_until_a_status_confirms_it() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        refuse_estops: 2,
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["estop"])
+        .expect_code(0)
+        .stdout_has("soft emergency stop (Type 2 Command 13, Value -1): failure (ErrorCode 1)")
+        .stdout_has(
+            "confirmed: the robot reports soft emergency stop (MotionState 6) after 3 command(s)",
+        );
+    let sent = estop_times(&sim);
+    assert_eq!(sent.len(), 3, "{sent:?}");
+    for pair in sent.windows(2) {
+        let gap = pair[1] - pair[0];
+        assert!((0.15..=0.40).contains(&gap), "gap {gap} s in {sent:?}");
+    }
+    assert_eq!(sim.snapshot().motion_state, MotionState::SoftEmergencyStop);
+}
+
+#[test]
+fn estop_is_repeated_while_the_answers_are_late() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        delay: Duration::from_millis(1000),
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["estop"])
+        .expect_code(0)
+        .stdout_has("confirmed: the robot reports soft emergency stop (MotionState 6)");
+    // The first status says so after a second; meanwhile Command 13 goes every 250 ms.
+    let sent = estop_times(&sim);
+    assert!(
+        (3..=6).contains(&sent.len()) && sent.iter().all(|t| t - sent[0] < 1.3),
+        "{sent:?}"
+    );
+}
+
+#[test]
+fn estop_to_a_silent_robot_is_repeated_then_reported_unconfirmed() {
+    // A robot that reads every request and answers none.
+    let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+    let addr = listener.local_addr().expect("addr").to_string();
+    let robot = thread::spawn(move || {
+        let (mut stream, _) = listener.accept().ok()?;
+        stream.set_read_timeout(Some(RUN_LIMIT)).ok()?;
+        let mut estops = 0;
+        while let Some((_, request)) = read_request(&mut stream) {
+            if matches!(request, Request::Motion(MotionCommand::SoftEmergencyStop)) {
+                estops += 1;
+            }
+        }
+        Some(estops)
+    });
+    x30ctl_raw(&["--robot", &addr, "--timeout-ms", "1200", "estop"])
+        .expect_code(3)
+        .stderr_has("no status confirmed soft emergency stop (MotionState 6) within 1200 ms");
+    let estops = robot.join().expect("robot thread").expect("a connection");
+    assert!((4..=6).contains(&estops), "{estops} e-stops in 1.2 s");
 }

@@ -1,8 +1,8 @@
 //! `route`: patrol routes, kept in files of navigation points.
 //!
-//! The file format is the vendor SDK's ([`file`]); `route run` walks a route point by point
-//! ([`run`]), `route record` writes one from where the robot stands ([`record`]), and
-//! `route show` checks one and shows its points.
+//! The file format is the vendor SDK's ([`file`](mod@file)); `route run` walks a route
+//! point by point ([`run`](mod@run)), `route record` writes one from where the robot stands
+//! ([`record`](mod@record)), and `route show` checks one and shows its points.
 
 mod file;
 mod record;

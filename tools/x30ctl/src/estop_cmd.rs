@@ -1,0 +1,208 @@
+//! `estop`: soft emergency stop (Type 2 Command 13), sent until the robot confirms it.
+//!
+//! As the panel's e-stop button does: the command goes out at once and again every 250 ms,
+//! whatever answers are still due, until a status (1002) reports soft emergency stop
+//! (MotionState 6). A status is asked with the first command and again each time the last
+//! one is answered. Refusals (ErrorCode 1), late answers and lost connections change only
+//! the report: a robot silent for [`SILENT`] gets a new connection, and a connection that
+//! fails is tried again at the next repeat. The confirmation (exit 0), `--timeout-ms`
+//! without it (exit 3) or Ctrl-C (exit 130) end the repeats.
+
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+use x30_panel::client::SILENT_AFTER;
+use x30_panel::proto::codes::{MessageType, MotionState};
+use x30_panel::proto::message::{MotionCommand, Request, Response};
+
+use crate::conn::Connection;
+use crate::error::Error;
+use crate::move_cmd::sleep_until;
+use crate::render::{emit, warn};
+use crate::{Ctx, Interrupts};
+
+/// How often Command 13 goes out until it is confirmed: the panel's rate.
+const REPEAT: Duration = Duration::from_millis(250);
+
+/// An answer this late means the connection is given up and a new one opened: the
+/// panel's rule. Until then at most nine requests are outstanding on it (a Command 13 per
+/// repeat and one status), fewer than a connection keeps track of.
+const SILENT: Duration = Duration::from_millis(SILENT_AFTER.as_millis());
+
+/// Runs `estop`.
+pub fn run(ctx: &Ctx, interrupts: &Interrupts) -> Result<(), Error> {
+    let estop = Request::Motion(MotionCommand::SoftEmergencyStop);
+    let start = Instant::now();
+    let mut link = Link::default();
+    let mut sent = 0u32;
+    let mut repeat = 0u32;
+    loop {
+        if interrupts.count() > 0 {
+            return Err(Error::Interrupted(format!(
+                "estop interrupted by Ctrl-C: Command 13 was sent {sent} time(s), not confirmed"
+            )));
+        }
+        if start.elapsed() >= ctx.timeout {
+            return Err(Error::EstopUnconfirmed {
+                waited: ctx.timeout,
+                sent,
+            });
+        }
+        if link.send(ctx, &estop) {
+            sent += 1;
+        }
+        repeat = repeat.saturating_add(1);
+        let next = REPEAT
+            .checked_mul(repeat)
+            .and_then(|after| start.checked_add(after))
+            .unwrap_or_else(Instant::now);
+        if let Some(state) = link.take_answers(ctx, next, interrupts) {
+            if !ctx.json {
+                emit(&format!(
+                    "confirmed: the robot reports {} (MotionState {}) after {sent} command(s)",
+                    state.description(),
+                    state.raw()
+                ));
+            }
+            return Ok(());
+        }
+    }
+}
+
+/// The connection the e-stop goes on, and the requests waiting for answers on it.
+#[derive(Default)]
+struct Link {
+    conn: Option<Connection>,
+    /// Command 13s awaiting their answers, oldest first: message ID and when it was sent.
+    estops: VecDeque<(u16, Instant)>,
+    /// The status request awaiting its answer, and when it was sent.
+    status: Option<(u16, Instant)>,
+}
+
+impl Link {
+    /// Sends Command 13, and a status request if none is due, connecting first if needed;
+    /// whether the command went out. A failure is reported and drops the connection.
+    fn send(&mut self, ctx: &Ctx, estop: &Request) -> bool {
+        if self.conn.is_none() {
+            match ctx.connect() {
+                Ok(conn) => {
+                    *self = Self {
+                        conn: Some(conn),
+                        ..Self::default()
+                    }
+                }
+                Err(e) => {
+                    warn(&format!("{e}; trying again"));
+                    return false;
+                }
+            }
+        }
+        let Some(conn) = self.conn.as_mut() else {
+            return false;
+        };
+        let message_id = match conn.send(estop) {
+            Ok(message_id) => message_id,
+            Err(e) => {
+                self.lose(&e);
+                return false;
+            }
+        };
+        self.estops.push_back((message_id, Instant::now()));
+        if self.status.is_none() {
+            match conn.send(&Request::Status) {
+                Ok(message_id) => self.status = Some((message_id, Instant::now())),
+                Err(e) => self.lose(&e),
+            }
+        }
+        true
+    }
+
+    /// Takes the answers that come until `until` (or Ctrl-C): the motion state of a status
+    /// that confirms the e-stop, if one does. Command 13's answers are printed (refusals
+    /// too, which change nothing); a connection that fails or falls silent is dropped.
+    fn take_answers(
+        &mut self,
+        ctx: &Ctx,
+        until: Instant,
+        interrupts: &Interrupts,
+    ) -> Option<MotionState> {
+        let confirmed = self.take_status(ctx, until, interrupts);
+        self.take_estop_answers(ctx);
+        if confirmed.is_none() {
+            // A status that did not confirm: the next is asked with the next command.
+            sleep_until(until, interrupts);
+        }
+        let silent = |sent: Option<Instant>| sent.is_some_and(|at| at.elapsed() >= SILENT);
+        if confirmed.is_none()
+            && self.conn.is_some()
+            && (silent(self.estops.front().map(|&(_, at)| at))
+                || silent(self.status.map(|(_, at)| at)))
+        {
+            warn(&format!(
+                "the robot has not answered for {} ms: reconnecting",
+                SILENT.as_millis()
+            ));
+            self.conn = None;
+        }
+        confirmed
+    }
+
+    /// Waits until `until` (or Ctrl-C) for the status asked for, if one is: its motion
+    /// state if it confirms the e-stop.
+    fn take_status(
+        &mut self,
+        ctx: &Ctx,
+        until: Instant,
+        interrupts: &Interrupts,
+    ) -> Option<MotionState> {
+        let (conn, (message_id, _)) = (self.conn.as_mut()?, self.status?);
+        match conn.poll(message_id, MessageType::Status, until, || {
+            interrupts.count() > 0
+        }) {
+            Ok(Some(answer)) => {
+                self.status = None;
+                let Response::Status(status) = answer.response else {
+                    return None;
+                };
+                if !status.motion_state.is_soft_emergency_stop() {
+                    return None;
+                }
+                if ctx.json {
+                    emit(&answer.json());
+                }
+                Some(status.motion_state)
+            }
+            Ok(None) => None,
+            Err(e) => {
+                self.lose(&e);
+                None
+            }
+        }
+    }
+
+    /// Prints the answers to Command 13 that are in already, waiting for none.
+    fn take_estop_answers(&mut self, ctx: &Ctx) {
+        while let (Some(conn), Some(&(message_id, _))) = (self.conn.as_mut(), self.estops.front()) {
+            match conn.poll(message_id, MessageType::Motion, Instant::now(), || false) {
+                Ok(Some(answer)) => {
+                    self.estops.pop_front();
+                    // A refusal is printed like any answer; the command goes again anyway.
+                    ctx.print(&answer);
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    self.lose(&e);
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Drops the connection after `e`, unless it is still usable.
+    fn lose(&mut self, e: &Error) {
+        if !e.keeps_connection() {
+            warn(&format!("{e}; reconnecting"));
+            self.conn = None;
+        }
+    }
+}
