@@ -589,6 +589,60 @@ async fn the_web_pages_changes_are_saved_by_the_console_with_the_same_checks() {
 }
 
 #[tokio::test(flavor = "current_thread")]
+async fn a_save_whose_caller_gave_up_keeps_the_owners_settings_from_the_next_one() {
+    let desk = Desk::new();
+    let edit = |speed: &'static str| {
+        move |edited: &mut Settings| {
+            edited.set(Key::SpeedForward, speed).unwrap();
+            Ok::<_, Refused>(())
+        }
+    };
+    // Typed on the console, not saved.
+    let mut settings = Settings::new(Config::default());
+    settings.set(Key::Repeat, "300").unwrap();
+    desk.publish(&settings);
+    let mut expected = settings.clone();
+    expected.set(Key::SpeedForward, "0.4").unwrap();
+    // A caller hands its edits over and gives up before the answer.
+    let gave_up = tokio::time::timeout(
+        std::time::Duration::from_millis(20),
+        desk.save_with(edit("0.3")),
+    )
+    .await;
+    assert!(gave_up.is_err(), "answered without an owner: {gave_up:?}");
+    // The owner takes them and starts saving; meanwhile another caller asks.
+    desk.request().await;
+    assert!(desk.take_edits(&mut settings));
+    let saved = desk::Saved {
+        keys: settings.unsaved(),
+        took: Duration::from_millis(5),
+        erases: 0,
+        moved: false,
+        route: false,
+    };
+    let owner = async {
+        // Let the next caller run up to its wait.
+        tokio::task::yield_now().await;
+        // The first save is refused: the owner gets its own settings back.
+        let lost = desk.answer(&mut settings, Err(Refused::Busy(Busy::StopPending)));
+        assert!(lost.is_empty());
+        assert_eq!(
+            settings.unsaved().iter().collect::<Vec<_>>(),
+            [Key::Repeat],
+            "the owner's own settings, not the next caller's edits"
+        );
+        // Then the next caller's edits, which start from what the owner published.
+        desk.request().await;
+        assert!(desk.take_edits(&mut settings));
+        assert_eq!(settings, expected);
+        desk.answer(&mut settings, Ok(saved))
+    };
+    let (result, lost) = tokio::join!(desk.save_with(edit("0.4")), owner);
+    assert_eq!(result, Ok(saved));
+    assert_eq!(lost.iter().collect::<Vec<_>>(), [Key::Repeat]);
+}
+
+#[tokio::test(flavor = "current_thread")]
 async fn a_desk_without_an_owner_refuses_at_once() {
     let desk = Desk::new();
     let saved = desk.save_with(|_| Ok::<_, Refused>(())).await;

@@ -145,12 +145,22 @@ pub struct Desk {
     published: BlockingMutex<CriticalSectionRawMutex, RefCell<Option<Settings>>>,
     /// One request at a time.
     turn: Mutex<CriticalSectionRawMutex, ()>,
-    /// Edited settings to save; while they are saved, the owner's, set aside.
-    pending: BlockingMutex<CriticalSectionRawMutex, RefCell<Option<Settings>>>,
+    /// Edited settings to save, then the owner's while it saves them.
+    pending: BlockingMutex<CriticalSectionRawMutex, RefCell<Slot>>,
     /// Rings when edits are pending.
     requests: Signal<CriticalSectionRawMutex, ()>,
     /// The owner's answer.
     replies: Signal<CriticalSectionRawMutex, Result<Saved, Refused>>,
+}
+
+/// What waits on the desk besides the published settings.
+enum Slot {
+    /// Nothing.
+    Empty,
+    /// Edits for the owner to save.
+    Edits(Settings),
+    /// The owner's own settings, set aside while it saves edits in their place.
+    SetAside(Settings),
 }
 
 impl Default for Desk {
@@ -165,7 +175,7 @@ impl Desk {
         Self {
             published: BlockingMutex::new(RefCell::new(None)),
             turn: Mutex::new(()),
-            pending: BlockingMutex::new(RefCell::new(None)),
+            pending: BlockingMutex::new(RefCell::new(Slot::Empty)),
             requests: Signal::new(),
             replies: Signal::new(),
         }
@@ -187,13 +197,22 @@ impl Desk {
             return Err(Refused::NoOwner.into());
         }
         let _turn = self.turn.lock().await;
+        // A caller that gave up its wait leaves its save running: its answer comes first,
+        // and the owner's settings set aside for it stay where they are.
+        while self
+            .pending
+            .lock(|cell| matches!(*cell.borrow(), Slot::SetAside(_)))
+        {
+            let _theirs = self.replies.wait().await;
+        }
         // The copy lives in this block only: held across the wait below, it would take
         // 4 KiB of the caller's future.
         {
             let mut edited = self.settings().ok_or(Refused::NoOwner)?;
             edit(&mut edited)?;
             self.replies.reset();
-            self.pending.lock(|cell| *cell.borrow_mut() = Some(edited));
+            self.pending
+                .lock(|cell| *cell.borrow_mut() = Slot::Edits(edited));
         }
         self.requests.signal(());
         Ok(self.replies.wait().await?)
@@ -213,12 +232,18 @@ impl Desk {
     /// The owner: puts the pending edits in `settings`, and sets the settings they replace
     /// aside on the desk; `false` (and nothing changed) if no edits are pending.
     pub fn take_edits(&self, settings: &mut Settings) -> bool {
-        self.pending.lock(|cell| match cell.borrow_mut().as_mut() {
-            Some(edits) => {
-                core::mem::swap(edits, settings);
-                true
+        self.pending.lock(|cell| {
+            let mut slot = cell.borrow_mut();
+            match core::mem::replace(&mut *slot, Slot::Empty) {
+                Slot::Edits(edits) => {
+                    *slot = Slot::SetAside(core::mem::replace(settings, edits));
+                    true
+                }
+                other => {
+                    *slot = other;
+                    false
+                }
             }
-            None => false,
         })
     }
 
@@ -227,14 +252,14 @@ impl Desk {
     /// were not saved (so lost), if any.
     pub fn answer(&self, settings: &mut Settings, result: Result<Saved, Refused>) -> Keys {
         let lost = self.pending.lock(|cell| {
-            let set_aside = cell.borrow_mut().take();
-            match (set_aside, &result) {
-                (Some(own), Err(_)) => {
+            let slot = core::mem::replace(&mut *cell.borrow_mut(), Slot::Empty);
+            match (slot, &result) {
+                (Slot::SetAside(own), Err(_)) => {
                     *settings = own;
                     Keys::EMPTY
                 }
-                (Some(own), Ok(_)) => own.unsaved(),
-                (None, _) => Keys::EMPTY,
+                (Slot::SetAside(own), Ok(_)) => own.unsaved(),
+                _ => Keys::EMPTY,
             }
         });
         self.replies.signal(result);
