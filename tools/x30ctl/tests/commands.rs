@@ -477,11 +477,7 @@ fn move_repeats_at_4_hz_then_sends_zero_velocity() {
     .expect_code(0)
     .stdout_has("4 command(s) acknowledged; zero velocity (Command 6) acknowledged");
     let log = requests_of(&sim, 2, None);
-    let forward: Vec<f64> = log
-        .iter()
-        .filter(|e| e.command == Some(1))
-        .map(|e| e.t)
-        .collect();
+    let forward = motion_times(&sim, 1);
     assert_eq!(forward.len(), 4, "{log:?}");
     for pair in forward.windows(2) {
         let gap = pair[1] - pair[0];

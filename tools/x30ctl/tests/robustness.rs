@@ -483,11 +483,7 @@ fn move_stops_on_time_and_drives_no_further_while_the_robot_answers_late() {
         .stderr_has("the robot has not answered for 500 ms: no motion until it does")
         .stdout_has("zero velocity (Command 6) acknowledged");
     let log = requests_of(&sim, 2, None);
-    let forward: Vec<f64> = log
-        .iter()
-        .filter(|e| e.command == Some(1))
-        .map(|e| e.t)
-        .collect();
+    let forward = motion_times(&sim, 1);
     let stop = log.last().expect("requests");
     assert_eq!(stop.command, Some(6), "{log:?}");
     // Zero velocity when the duration ends, not when the pending answers come (3 s).
@@ -593,11 +589,6 @@ fn late_type_0_to_an_abandoned_move_command_is_skipped() {
     assert_ne!(forward_id, stop_id);
 }
 
-/// The times (s) at which the simulator received Command 13.
-fn estop_times(sim: &x30_sim::Simulator) -> Vec<f64> {
-    requests_of(sim, 2, Some(13)).iter().map(|e| e.t).collect()
-}
-
 #[test]
 fn estop_is_sent_again_until_a_status_confirms_it() {
     let sim = sim(1.0);
@@ -611,7 +602,7 @@ fn estop_is_sent_again_until_a_status_confirms_it() {
         .stdout_has(
             "confirmed: the robot reports soft emergency stop (MotionState 6) after 3 command(s)",
         );
-    let sent = estop_times(&sim);
+    let sent = motion_times(&sim, 13);
     assert_eq!(sent.len(), 3, "{sent:?}");
     for pair in sent.windows(2) {
         let gap = pair[1] - pair[0];
@@ -631,7 +622,7 @@ fn estop_is_repeated_while_the_answers_are_late() {
         .expect_code(0)
         .stdout_has("confirmed: the robot reports soft emergency stop (MotionState 6)");
     // The first status says so after a second; meanwhile Command 13 goes every 250 ms.
-    let sent = estop_times(&sim);
+    let sent = motion_times(&sim, 13);
     assert!(
         (3..=6).contains(&sent.len()) && sent.iter().all(|t| t - sent[0] < 1.3),
         "{sent:?}"

@@ -334,6 +334,14 @@ pub fn requests_of(sim: &Simulator, message_type: i32, command: Option<i32>) -> 
         .collect()
 }
 
+/// When (seconds on the simulator's clock) it received each Type 2 request with `command`.
+pub fn motion_times(sim: &Simulator, command: i32) -> Vec<f64> {
+    requests_of(sim, 2, Some(command))
+        .iter()
+        .map(|e| e.t)
+        .collect()
+}
+
 /// Polls `condition` every 5 ms until it holds; panics after `limit`.
 #[track_caller]
 pub fn wait_for(what: &str, limit: Duration, mut condition: impl FnMut() -> bool) {
