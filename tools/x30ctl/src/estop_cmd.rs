@@ -15,7 +15,7 @@ use x30_panel::client::SILENT_AFTER;
 use x30_panel::proto::codes::{MessageType, MotionState};
 use x30_panel::proto::message::{MotionCommand, Request, Response};
 
-use crate::conn::Connection;
+use crate::conn::{Answer, Connection};
 use crate::error::Error;
 use crate::move_cmd::sleep_until;
 use crate::render::{emit, warn};
@@ -126,8 +126,15 @@ impl Link {
         until: Instant,
         interrupts: &Interrupts,
     ) -> Option<MotionState> {
-        let confirmed = self.take_status(ctx, until, interrupts);
+        let confirmed = self.take_status(until, interrupts);
+        // In the order they came: Command 13's answers before the status.
         self.take_estop_answers(ctx);
+        if let Some((_, answer)) = &confirmed
+            && ctx.json
+        {
+            emit(&answer.json());
+        }
+        let confirmed = confirmed.map(|(state, _)| state);
         if confirmed.is_none() {
             // A status that did not confirm: the next is asked with the next command.
             sleep_until(until, interrupts);
@@ -148,13 +155,12 @@ impl Link {
     }
 
     /// Waits until `until` (or Ctrl-C) for the status asked for, if one is: its motion
-    /// state if it confirms the e-stop.
+    /// state and the answer, if it confirms the e-stop.
     fn take_status(
         &mut self,
-        ctx: &Ctx,
         until: Instant,
         interrupts: &Interrupts,
-    ) -> Option<MotionState> {
+    ) -> Option<(MotionState, Answer)> {
         let (conn, (message_id, _)) = (self.conn.as_mut()?, self.status?);
         match conn.poll(message_id, MessageType::Status, until, || {
             interrupts.count() > 0
@@ -164,13 +170,10 @@ impl Link {
                 let Response::Status(status) = answer.response else {
                     return None;
                 };
-                if !status.motion_state.is_soft_emergency_stop() {
-                    return None;
-                }
-                if ctx.json {
-                    emit(&answer.json());
-                }
-                Some(status.motion_state)
+                status
+                    .motion_state
+                    .is_soft_emergency_stop()
+                    .then_some((status.motion_state, answer))
             }
             Ok(None) => None,
             Err(e) => {

@@ -609,6 +609,12 @@ fn estop_is_sent_again_until_a_status_confirms_it() {
         assert!((0.15..=0.40).contains(&gap), "gap {gap} s in {sent:?}");
     }
     assert_eq!(sim.snapshot().motion_state, MotionState::SoftEmergencyStop);
+    // With --json: the answer to Command 13, then the status that confirms it.
+    let run = x30ctl(&sim, &["estop", "--json"]);
+    let lines = run.expect_code(0).json_lines();
+    assert_eq!(lines.len(), 2, "{}", run.stdout);
+    assert_eq!(lines[0]["command"], 13);
+    assert_eq!(lines[1]["motion_state"]["code"], 6);
 }
 
 #[test]
