@@ -37,7 +37,7 @@ use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Instant, Timer, with_timeout};
 
-use crate::client::{ClientError, Connection, Health, RobotClock, Transport};
+use crate::client::{ClientError, Connection, Health, RobotClock, STABLE_AFTER, Transport};
 use crate::config::{Cidr, Config, PollPeriods, RobotAddress};
 use crate::panel::indicators::{Faults, LinkState};
 use crate::panel::monitor::Stamped;
@@ -56,7 +56,10 @@ pub const REQUEST_TIMEOUT: Duration = Duration::from_millis(1500);
 /// Longest sleep of a loop without an event: keeps the progress counter moving.
 pub const IDLE: Duration = Duration::from_millis(500);
 /// Longest wait between connection attempts while a stop waits to go out: the stop path
-/// wins over the backoff's patience with a robot that keeps dropping connections.
+/// wins over the backoff's patience with a robot that keeps dropping connections. Also how
+/// long the command connection must have been open to be reopened at once when lost: a
+/// robot that hangs up after each answer then gets a stop, which goes first on every new
+/// connection, as often as the e-stop repeats, not as fast as it can reconnect.
 pub const STOP_RETRY: Duration = Duration::from_millis(250);
 /// How long a cancelled task's 1003 answer may take before its connection is closed.
 pub const CANCEL_GRACE: Duration = Duration::from_secs(2);
@@ -383,7 +386,7 @@ impl App<'_> {
             }
             self.connection(ConnectionRole::Commands, state_of(health));
             if !self.send_due(conn, health).await {
-                retry_at = Instant::now() + self.retry_delay(conn.reconnect_delay());
+                retry_at = Instant::now() + self.retry_delay(conn.reconnect_delay(STOP_RETRY));
                 self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
             }
@@ -408,7 +411,7 @@ impl App<'_> {
                 }
                 Either3::First(Err(e)) => {
                     warn!("command connection lost: {:?}", e);
-                    retry_at = Instant::now() + self.retry_delay(conn.reconnect_delay());
+                    retry_at = Instant::now() + self.retry_delay(conn.reconnect_delay(STOP_RETRY));
                     self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 }
                 Either3::Second(()) | Either3::Third(()) => {}
@@ -498,7 +501,7 @@ impl App<'_> {
                 }
                 Err(e) => {
                     warn!("poll connection lost: {:?}", e);
-                    retry_at = Instant::now() + conn.reconnect_delay();
+                    retry_at = Instant::now() + conn.reconnect_delay(STABLE_AFTER);
                     self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
                 }
             }

@@ -3,6 +3,8 @@
 
 mod common;
 // The store's tests use the whole simulated chip; these only a blank one.
+#[path = "common/peer.rs"]
+mod peer;
 #[allow(dead_code)]
 #[path = "common/sim_flash.rs"]
 mod sim_flash;
@@ -11,14 +13,18 @@ mod terminal;
 
 use common::TokioTransport;
 use embassy_time::{Duration, Instant};
+use peer::{answer, read_request};
+use std::io::Write as _;
+use std::sync::{Arc, Mutex};
 use std::time::Duration as StdDuration;
 use x30_panel::app::{self, Connections, Path, Shared};
 use x30_panel::client::{Backoff, Connection};
 use x30_panel::config::Config;
 use x30_panel::panel::NetworkState;
 use x30_panel::panel::{Button, ButtonEvent, Indicators, Led};
-use x30_panel::proto::codes::{GaitState, MotionGait, MotionState, PointInfo};
-use x30_panel::proto::message::{MotionCommand, NavPoint, Request};
+use x30_panel::proto::codes::{GaitState, MotionGait, MotionState, PointInfo, RequestErrorCode};
+use x30_panel::proto::frame::FrameDecoder;
+use x30_panel::proto::message::{MotionCommand, NavPoint, Request, RequestError, Response};
 use x30_sim::{Config as SimConfig, Faults, LogEntry, Simulator};
 
 use sim_flash::{PAGE, SimFlash};
@@ -310,6 +316,121 @@ async fn held_motion_repeats_at_4_hz_and_release_sends_zero_velocity_at_once() {
         before_zero.len() <= 1,
         "at most the one command in flight precedes zero velocity: {before_zero:?}"
     );
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_robot_that_hangs_up_after_each_answer_is_not_flooded_and_stops_still_go_at_once() {
+    let sim = simulator(1.0);
+    // Every connection: the first request answered, the second closes it.
+    sim.set_faults(Faults {
+        drop_after: Some(2),
+        ..Default::default()
+    });
+    let (connections, pressed, estop) = with_app(&sim, async |shared| {
+        sleep(2000).await;
+        let connections: std::collections::BTreeSet<_> =
+            sim.requests().iter().map(|e| e.conn).collect();
+        let pressed = sim.elapsed().as_secs_f64();
+        press(shared, Button::Estop, true).await;
+        let estop = wait_for_command(&sim, 1000, pressed, 13).await;
+        sleep(1000).await;
+        (connections.len(), pressed, estop)
+    })
+    .await;
+    // Until a status confirms it, the e-stop goes out every 250 ms, and first on each new
+    // command connection, which the robot also hangs up: not much more often than that.
+    let estops = motion(&sim.requests())
+        .iter()
+        .filter(|(t, c)| *c == 13 && *t >= pressed && *t < pressed + 1.0)
+        .count();
+    assert!((1..=10).contains(&estops), "{estops} e-stops in 1 s");
+    // The poll connection lasts a few milliseconds each time: it waits out the backoff
+    // (50, 100, 200, 400, 400 ms...), about eight connections in 2 s, not hundreds.
+    assert!(
+        (2..=14).contains(&connections),
+        "{connections} connections in 2 s"
+    );
+    let estop = estop.expect("Command 13 was sent");
+    assert!(
+        estop - pressed < 0.2,
+        "the e-stop went out {} s after the press",
+        estop - pressed
+    );
+}
+
+/// What a scripted robot received, and when (seconds from the test's start).
+type Received = Arc<Mutex<Vec<(f64, Request)>>>;
+
+/// A robot on loopback that answers every request with Type 0 and hangs up at once;
+/// what it received, and when (seconds from `start`).
+fn robot_hanging_up_after_each_answer(
+    start: std::time::Instant,
+) -> (std::net::SocketAddr, Received) {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    let log = Arc::new(Mutex::new(Vec::new()));
+    let seen = log.clone();
+    std::thread::spawn(move || {
+        for stream in listener.incoming().take(1000) {
+            let Ok(mut stream) = stream else { return };
+            let seen = seen.clone();
+            std::thread::spawn(move || {
+                let Some((id, request)) = read_request(&mut stream, &mut FrameDecoder::new())
+                else {
+                    return;
+                };
+                let at = start.elapsed().as_secs_f64();
+                seen.lock().unwrap().push((at, request));
+                let refused = Response::RequestError(RequestError {
+                    code: RequestErrorCode::ParseFailed,
+                });
+                let _ = stream.write_all(&answer(id, &refused));
+            });
+        }
+    });
+    (addr, log)
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_pending_estop_is_not_sent_faster_than_it_repeats_to_a_robot_hanging_up_each_time() {
+    let start = std::time::Instant::now();
+    let (addr, log) = robot_hanging_up_after_each_answer(start);
+    let shared = Shared::new();
+    shared.set_network(NetworkState::Up);
+    let mut links = links(addr);
+    let config = config();
+    let mut pressed = 0.0;
+    tokio::select! {
+        _ = app::run(&config, &mut links, &shared) => unreachable!(),
+        _ = async {
+            sleep(500).await;
+            pressed = start.elapsed().as_secs_f64();
+            press(&shared, Button::Estop, true).await;
+            sleep(1000).await;
+        } => {}
+    }
+    let log = log.lock().unwrap();
+    let estops: Vec<f64> = log
+        .iter()
+        .filter(|(_, r)| matches!(r, Request::Motion(MotionCommand::SoftEmergencyStop)))
+        .map(|(t, _)| t - pressed)
+        .collect();
+    // Never confirmed, so repeated for the whole second: every 250 ms, and first on each
+    // new connection, which the robot hangs up at once; not as fast as it can reconnect.
+    assert!(
+        estops.first().is_some_and(|&t| (0.0..0.2).contains(&t)),
+        "the first e-stop at once: {estops:?}"
+    );
+    assert!(
+        (3..=10).contains(&estops.len()),
+        "{} e-stops in 1 s",
+        estops.len()
+    );
+    let polls = log
+        .iter()
+        .filter(|(_, r)| matches!(r, Request::Status))
+        .count();
+    assert!(polls <= 15, "{polls} status polls in 1.5 s");
 }
 
 #[tokio::test(flavor = "current_thread")]

@@ -2,64 +2,26 @@
 //! unsolicited frames, timeouts, closed connections, the learned clock.
 
 mod common;
+#[path = "common/peer.rs"]
+mod peer;
 
 use common::TokioTransport;
 use embassy_time::{Duration, Instant};
+use peer::{answer, read_request};
 use std::io::{Read as _, Write as _};
 use std::net::{TcpListener, TcpStream};
 use std::thread;
-use x30_panel::client::{ANSWER_OVERDUE, Backoff, ClientError, Connection, Health, SILENT_AFTER};
+use x30_panel::client::{
+    ANSWER_OVERDUE, Backoff, ClientError, Connection, Health, SILENT_AFTER, STABLE_AFTER,
+};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::frame::{self, FrameDecoder};
 use x30_panel::proto::message::*;
-use x30_panel::proto::time::Timestamp;
 
 const TIMEOUT: Duration = Duration::from_millis(2000);
-const ROBOT_TIME: Timestamp = Timestamp {
-    year: 2024,
-    month: 6,
-    day: 1,
-    hour: 12,
-    minute: 0,
-    second: 0,
-};
 
 fn backoff() -> Backoff {
     Backoff::new(Duration::from_millis(10), Duration::from_millis(100))
-}
-
-/// A frame holding `response` for message `id`.
-fn answer(id: u16, response: &Response) -> Vec<u8> {
-    let mut out = vec![0u8; 4096];
-    let n = frame::encode_with(&mut out, id, |body| {
-        response
-            .encode(&ROBOT_TIME, body)
-            .map_err(|_| frame::EncodeError::BufferTooSmall)
-    })
-    .unwrap();
-    out.truncate(n);
-    out
-}
-
-/// Reads one request frame from a peer socket: its ID and decoded request.
-fn read_request(
-    stream: &mut TcpStream,
-    decoder: &mut FrameDecoder<8192>,
-) -> Option<(u16, Request)> {
-    stream
-        .set_read_timeout(Some(std::time::Duration::from_secs(5)))
-        .ok()?;
-    loop {
-        if let Some(Ok(f)) = decoder.decode() {
-            return Some((f.message_id, Request::decode(f.asdu).ok()?.message));
-        }
-        let mut buf = [0u8; 1024];
-        let n = stream.read(&mut buf).ok()?;
-        if n == 0 {
-            return None;
-        }
-        decoder.feed(&buf[..n]);
-    }
 }
 
 /// A peer that accepts one connection and runs `script` on it.
@@ -467,7 +429,7 @@ async fn a_robot_that_drops_every_connection_at_once_is_retried_with_backoff() {
     for _ in 0..3 {
         link.connect().await.expect("the peer accepts");
         assert!(link.receive().await.is_err(), "the peer hangs up");
-        delays.push(link.reconnect_delay().as_millis());
+        delays.push(link.reconnect_delay(STABLE_AFTER).as_millis());
     }
     assert_eq!(
         delays,
@@ -487,5 +449,51 @@ async fn a_connection_that_answered_is_reopened_at_once_when_lost() {
     let mut link = connected(addr).await;
     link.perception(TIMEOUT).await.unwrap();
     assert!(link.receive().await.is_err(), "the peer hangs up");
-    assert_eq!(link.reconnect_delay().as_millis(), 0, "a blip: no wait");
+    assert_eq!(
+        link.reconnect_delay(Duration::from_ticks(0)).as_millis(),
+        0,
+        "a blip: no wait"
+    );
+}
+
+#[tokio::test]
+async fn a_robot_that_hangs_up_after_each_answer_waits_out_the_backoff_unless_asked_not_to() {
+    // Answers the first request on each connection and hangs up: at once, except on the
+    // fourth connection, which it keeps open a little longer than STABLE_AFTER.
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    thread::spawn(move || {
+        for (i, stream) in listener.incoming().take(6).enumerate() {
+            let Ok(mut s) = stream else { return };
+            let mut d = FrameDecoder::new();
+            if let Some((id, _)) = read_request(&mut s, &mut d) {
+                let _ = s.write_all(&answer(id, &perception()));
+            }
+            if i == 3 {
+                thread::sleep(std::time::Duration::from_millis(1100));
+            }
+        }
+    });
+    let mut link = Connection::new(TokioTransport::new(addr), backoff());
+    let mut delays = Vec::new();
+    let at_once = Duration::from_ticks(0);
+    for stable in [
+        STABLE_AFTER,
+        STABLE_AFTER,
+        STABLE_AFTER,
+        STABLE_AFTER,
+        STABLE_AFTER,
+        at_once,
+    ] {
+        link.connect().await.expect("the peer accepts");
+        link.perception(TIMEOUT).await.expect("answered");
+        assert!(link.receive().await.is_err(), "the peer hangs up");
+        delays.push(link.reconnect_delay(stable).as_millis());
+    }
+    assert_eq!(
+        delays,
+        [10, 20, 40, 0, 10, 0],
+        "short connections wait out a growing backoff; a healthy one is reopened at once \
+         and starts the backoff again; the command connection's rule reopens any at once"
+    );
 }

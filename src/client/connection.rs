@@ -58,6 +58,12 @@ pub const WRITE_TIMEOUT: Duration = Duration::from_millis(200);
 /// motion is no longer written to the connection (stops still are).
 pub const ANSWER_OVERDUE: Duration = Duration::from_millis(500);
 
+/// How long the poll connection must have been open, with the robot answering on it, to be
+/// reopened at once when it is lost ([`Connection::reconnect_delay`]). A robot that answers
+/// a request and hangs up at the next would otherwise be reconnected to and polled as fast
+/// as the link allows.
+pub const STABLE_AFTER: Duration = Duration::from_secs(1);
+
 /// With requests outstanding and nothing received for this long, the robot is silent and the
 /// connection is given up on.
 pub const SILENT_AFTER: Duration = Duration::from_secs(2);
@@ -131,6 +137,8 @@ pub struct Connection<T: Transport> {
     /// the backoff start again from its minimum, so that a robot that accepts connections
     /// and drops them at once is not hammered.
     answered: bool,
+    /// When this connection opened.
+    opened_at: Instant,
 }
 
 impl<T: Transport> Connection<T> {
@@ -149,6 +157,7 @@ impl<T: Transport> Connection<T> {
             waiting_since: None,
             timeouts_in_a_row: 0,
             answered: false,
+            opened_at: Instant::from_ticks(0),
         }
     }
 
@@ -180,6 +189,7 @@ impl<T: Transport> Connection<T> {
             Ok(()) => {
                 self.connected = true;
                 self.answered = false;
+                self.opened_at = Instant::now();
                 info!("connected to the robot");
                 Ok(())
             }
@@ -211,13 +221,20 @@ impl<T: Transport> Connection<T> {
     /// backoff, so a robot that accepts connections but never answers is not hammered.
     pub async fn give_up(&mut self) -> Duration {
         self.disconnect().await;
+        if core::mem::take(&mut self.answered) {
+            self.backoff.reset();
+        }
         self.retry_delay(ErrorKind::TimedOut)
     }
 
     /// How long to wait before reconnecting after the connection was lost: not at all if
-    /// the robot had answered on it (a blip), else the backoff's next delay.
-    pub fn reconnect_delay(&mut self) -> Duration {
-        if core::mem::take(&mut self.answered) {
+    /// the robot had answered on it and it had been open for `stable` (a blip; the backoff
+    /// starts again from its minimum), else the backoff's next delay. The poll connection
+    /// gives [`STABLE_AFTER`]; the command connection, whose stops must not wait, 250 ms.
+    pub fn reconnect_delay(&mut self, stable: Duration) -> Duration {
+        let up = Instant::now().saturating_duration_since(self.opened_at);
+        if core::mem::take(&mut self.answered) && up >= stable {
+            self.backoff.reset();
             Duration::from_ticks(0)
         } else {
             self.retry_delay(ErrorKind::ConnectionReset)
@@ -436,10 +453,7 @@ impl<T: Transport> Connection<T> {
             };
             self.timeouts_in_a_row = 0;
             self.waiting_since = (!self.outstanding.is_empty()).then(Instant::now);
-            if !self.answered {
-                self.answered = true;
-                self.backoff.reset();
-            }
+            self.answered = true;
             let result = match decoded {
                 Ok(decoded) => {
                     self.clock.learn(decoded.time, Instant::now());
