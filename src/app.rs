@@ -56,11 +56,13 @@ pub const REQUEST_TIMEOUT: Duration = Duration::from_millis(1500);
 /// Longest sleep of a loop without an event: keeps the progress counter moving.
 pub const IDLE: Duration = Duration::from_millis(500);
 /// Longest wait between connection attempts while a stop waits to go out: the stop path
-/// wins over the backoff's patience with a robot that keeps dropping connections. Also how
-/// long the command connection must have been open to be reopened at once when lost: a
-/// robot that hangs up after each answer then gets a stop, which goes first on every new
-/// connection, as often as the e-stop repeats, not as fast as it can reconnect.
+/// wins over the backoff's patience with a robot that keeps dropping connections.
 pub const STOP_RETRY: Duration = Duration::from_millis(250);
+/// How long the command connection must have been open to be reopened at once when lost
+/// (the poll connection's is [`STABLE_AFTER`]). A pending stop goes first on every new
+/// connection, so a robot that hangs up after each answer then gets it as often as
+/// [`STOP_RETRY`] allows, the e-stop's own rate, not as fast as it can reconnect.
+const COMMANDS_STABLE_AFTER: Duration = STOP_RETRY;
 /// How long a cancelled task's 1003 answer may take before its connection is closed.
 pub const CANCEL_GRACE: Duration = Duration::from_secs(2);
 /// Longest time between two LED updates, so that a network change shows without an event.
@@ -386,7 +388,8 @@ impl App<'_> {
             }
             self.connection(ConnectionRole::Commands, state_of(health));
             if !self.send_due(conn, health).await {
-                retry_at = Instant::now() + self.retry_delay(conn.reconnect_delay(STOP_RETRY));
+                retry_at =
+                    Instant::now() + self.retry_delay(conn.reconnect_delay(COMMANDS_STABLE_AFTER));
                 self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
             }
@@ -411,7 +414,8 @@ impl App<'_> {
                 }
                 Either3::First(Err(e)) => {
                     warn!("command connection lost: {:?}", e);
-                    retry_at = Instant::now() + self.retry_delay(conn.reconnect_delay(STOP_RETRY));
+                    retry_at = Instant::now()
+                        + self.retry_delay(conn.reconnect_delay(COMMANDS_STABLE_AFTER));
                     self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 }
                 Either3::Second(()) | Either3::Third(()) => {}

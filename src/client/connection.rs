@@ -230,7 +230,7 @@ impl<T: Transport> Connection<T> {
     /// How long to wait before reconnecting after the connection was lost: not at all if
     /// the robot had answered on it and it had been open for `stable` (a blip; the backoff
     /// starts again from its minimum), else the backoff's next delay. The poll connection
-    /// gives [`STABLE_AFTER`]; the command connection, whose stops must not wait, 250 ms.
+    /// gives [`STABLE_AFTER`]; the command connection, whose stops must not wait, less.
     pub fn reconnect_delay(&mut self, stable: Duration) -> Duration {
         let up = Instant::now().saturating_duration_since(self.opened_at);
         if core::mem::take(&mut self.answered) && up >= stable {

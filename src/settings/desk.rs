@@ -138,8 +138,8 @@ pub async fn save<F: NorFlash>(
 ///
 /// Settings are 4 KiB, and every copy held across an `await` takes that much of a task's
 /// future, which the board keeps in static RAM. So edits stay on the desk: the owner swaps
-/// them with its own settings in place ([`Desk::take_edits`]), and its own wait on the desk
-/// there until the answer ([`Desk::answer`]).
+/// them with its own settings in place ([`Desk::take_edits`]), and its own settings wait
+/// on the desk until it answers ([`Desk::answer`]).
 pub struct Desk {
     /// The owner's settings, as of its last change.
     published: BlockingMutex<CriticalSectionRawMutex, RefCell<Option<Settings>>>,
