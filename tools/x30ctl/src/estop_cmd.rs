@@ -12,6 +12,7 @@ use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 use x30_panel::client::SILENT_AFTER;
+use x30_panel::panel::control::ESTOP_REPEAT;
 use x30_panel::proto::codes::{MessageType, MotionState};
 use x30_panel::proto::message::{MotionCommand, Request, Response};
 
@@ -22,7 +23,7 @@ use crate::render::{emit, warn};
 use crate::{Ctx, Interrupts};
 
 /// How often Command 13 goes out until it is confirmed: the panel's rate.
-const REPEAT: Duration = Duration::from_millis(250);
+const REPEAT: Duration = Duration::from_millis(ESTOP_REPEAT.as_millis());
 
 /// An answer this late means the connection is given up and a new one opened: the
 /// panel's rule. Until then at most nine requests are outstanding on it (a Command 13 per
@@ -69,7 +70,8 @@ pub fn run(ctx: &Ctx, interrupts: &Interrupts) -> Result<(), Error> {
     }
 }
 
-/// The connection the e-stop goes on, and the requests waiting for answers on it.
+/// The connection the e-stop goes on, and the requests waiting for answers on it (none
+/// without a connection).
 #[derive(Default)]
 struct Link {
     conn: Option<Connection>,
@@ -85,12 +87,7 @@ impl Link {
     fn send(&mut self, ctx: &Ctx, estop: &Request) -> bool {
         if self.conn.is_none() {
             match ctx.connect() {
-                Ok(conn) => {
-                    *self = Self {
-                        conn: Some(conn),
-                        ..Self::default()
-                    }
-                }
+                Ok(conn) => self.conn = Some(conn),
                 Err(e) => {
                     warn(&format!("{e}; trying again"));
                     return false;
@@ -141,7 +138,6 @@ impl Link {
         }
         let silent = |sent: Option<Instant>| sent.is_some_and(|at| at.elapsed() >= SILENT);
         if confirmed.is_none()
-            && self.conn.is_some()
             && (silent(self.estops.front().map(|&(_, at)| at))
                 || silent(self.status.map(|(_, at)| at)))
         {
@@ -149,7 +145,7 @@ impl Link {
                 "the robot has not answered for {} ms: reconnecting",
                 SILENT.as_millis()
             ));
-            self.conn = None;
+            self.drop_connection();
         }
         confirmed
     }
@@ -205,7 +201,12 @@ impl Link {
     fn lose(&mut self, e: &Error) {
         if !e.keeps_connection() {
             warn(&format!("{e}; reconnecting"));
-            self.conn = None;
+            self.drop_connection();
         }
+    }
+
+    /// Drops the connection, and with it the requests that waited for answers on it.
+    fn drop_connection(&mut self) {
+        *self = Self::default();
     }
 }
