@@ -6,7 +6,7 @@ use embedded_io_async::{Error as _, ErrorKind, Read, Write};
 use super::{Backoff, ClientError, RobotClock};
 use crate::config::RobotAddress;
 use crate::proto::codes::MessageType;
-use crate::proto::frame::{self, FrameDecoder, FrameError, MessageIds};
+use crate::proto::frame::{self, FrameDecoder, MessageIds};
 use crate::proto::message::{
     Battery, CommandAck, DecodeError, Decoded, Light, MotionAck, MotionCommand, MotorTemperatures,
     NavResult, NavTask, NavTaskState, Perception, Relocalize, RelocalizeAck, Request, Response,
@@ -431,8 +431,14 @@ impl<T: Transport> Connection<T> {
             let frame = match item {
                 Ok(frame) => frame,
                 Err(e) => {
-                    self.anomalies.stream_errors = self.anomalies.stream_errors.saturating_add(1);
-                    log_stream_error(e);
+                    let count = self.anomalies.stream_errors.saturating_add(1);
+                    self.anomalies.stream_errors = count;
+                    if worth_logging(count) {
+                        warn!(
+                            "skipped bytes on the connection: {:?} ({} so far)",
+                            e, count
+                        );
+                    }
                     continue;
                 }
             };
@@ -447,8 +453,14 @@ impl<T: Transport> Connection<T> {
             let Some((message_id, request)) =
                 self.outstanding.answer(frame.message_id, request_error)
             else {
-                self.anomalies.unsolicited = self.anomalies.unsolicited.saturating_add(1);
-                warn!("skipped a frame for message {}", frame.message_id);
+                let count = self.anomalies.unsolicited.saturating_add(1);
+                self.anomalies.unsolicited = count;
+                if worth_logging(count) {
+                    warn!(
+                        "skipped a frame for message {} ({} so far)",
+                        frame.message_id, count
+                    );
+                }
                 continue;
             };
             self.timeouts_in_a_row = 0;
@@ -606,6 +618,10 @@ fn unexpected(expected: MessageType, got: &Response) -> ClientError {
     }
 }
 
-fn log_stream_error(e: FrameError) {
-    warn!("skipped bytes on the connection: {:?}", e);
+/// Whether the `count`th anomaly of a kind is logged: the first, the second, the fourth and
+/// so on. A robot that pushes junk all the time would otherwise flood the log, and on a
+/// board whose log output blocks (QEMU's semihosting) take the CPU from the stop paths; the
+/// [`Anomalies`] counts keep the total.
+fn worth_logging(count: u32) -> bool {
+    count.is_power_of_two()
 }
