@@ -318,6 +318,9 @@ impl App<'_> {
         *followed = target.moves;
         conn.retarget(target.robot).await;
         self.connection(role, ConnectionState::Connecting);
+        if role == ConnectionRole::Polls {
+            self.panel(Panel::robot_moved);
+        }
         true
     }
 

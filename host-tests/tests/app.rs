@@ -1189,6 +1189,11 @@ async fn a_saved_robot_address_moves_every_connection_at_once() {
             wait_for_log(&second, 2000, |l| polls(l, 1002) > 0).await,
             "the second robot is polled within 2 s"
         );
+        assert!(
+            wait_for_log(&second, 1000, |l| polls(l, 2001) > 0 && polls(l, 1008) > 0).await,
+            "the second robot is asked its battery and motor temperatures at once, not when \
+             the first robot's were next due"
+        );
         click(shared, Button::Light).await;
         assert!(
             wait_for_type(&second, 2000, 0.0, 1101).await.is_some(),

@@ -113,6 +113,56 @@ fn connecting_polls_everything_at_once_in_order() {
 }
 
 #[test]
+fn a_robot_that_hangs_up_after_each_answer_is_asked_every_poll_in_turn_and_a_new_robot_everything()
+{
+    let mut m = Monitor::new(&Config::default());
+    // Each connection gets one poll answered, then is lost and reopened 10 ms later.
+    let mut first_polls = Vec::new();
+    for n in 0..5 {
+        let now = at(n * 20);
+        m.connection(ConnectionState::Open, now);
+        first_polls.extend(m.next_poll(now));
+        m.connection(ConnectionState::Connecting, now + Duration::from_millis(10));
+    }
+    assert_eq!(
+        first_polls,
+        [
+            Request::Status,
+            Request::Perception,
+            Request::Battery,
+            Request::MotorTemperatures,
+        ],
+        "then nothing is due until 500 ms"
+    );
+    // A connection to another robot asks it everything at once.
+    m.robot_moved();
+    m.connection(ConnectionState::Open, at(200));
+    let all: Vec<_> = std::iter::from_fn(|| m.next_poll(at(200))).collect();
+    assert_eq!(
+        all,
+        [
+            Request::Status,
+            Request::Perception,
+            Request::Battery,
+            Request::MotorTemperatures,
+        ]
+    );
+    m.connection(ConnectionState::Connecting, at(210));
+    // A reconnection after a long outage asks everything at once, the most overdue first.
+    m.connection(ConnectionState::Open, at(20_000));
+    let all: Vec<_> = std::iter::from_fn(|| m.next_poll(at(20_000))).collect();
+    assert_eq!(
+        all,
+        [
+            Request::Status,
+            Request::Perception,
+            Request::Battery,
+            Request::MotorTemperatures,
+        ]
+    );
+}
+
+#[test]
 fn a_late_wake_up_polls_once_and_keeps_the_period() {
     let mut m = Monitor::new(&Config::default());
     m.connection(ConnectionState::Open, at(0));

@@ -179,6 +179,11 @@ impl Panel {
         self.network = state;
     }
 
+    /// The robot's address changed (see [`Monitor::robot_moved`]).
+    pub fn robot_moved(&mut self) {
+        self.monitor.robot_moved();
+    }
+
     /// A connection to the robot is in `state`; whether that is a change.
     pub fn connection(
         &mut self,

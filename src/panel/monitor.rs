@@ -31,7 +31,7 @@ struct Schedule {
     kind: Poll,
     /// How often.
     period: Duration,
-    /// When next; `None` while this poll is off.
+    /// When next, kept while disconnected; `None` while this poll is off.
     due: Option<Instant>,
 }
 
@@ -106,19 +106,34 @@ impl Monitor {
         }
     }
 
-    /// The poll connection is in `state`: open (every poll at once, to fill the view) or
+    /// The poll connection is in `state`: open (every poll that fell due meanwhile at once,
+    /// the most overdue first; on the first connection, all of them, to fill the view) or
     /// connecting (no polls until it is back).
+    ///
+    /// Polls keep their times across a reconnection. Were they all made due afresh, a robot
+    /// that answers one request and hangs up would only ever be asked the first of them.
     pub fn connection(&mut self, state: ConnectionState, now: Instant) {
         let connected = state != ConnectionState::Connecting;
         if connected == self.connected {
             return;
         }
         self.connected = connected;
-        for s in &mut self.schedules {
-            s.due = connected.then_some(now);
+        if connected {
+            for s in &mut self.schedules {
+                s.due.get_or_insert(now);
+            }
         }
         // The 1007 poll has its own rule.
         self.schedule_nav(now);
+    }
+
+    /// The robot's address changed: the next connection goes to another robot, whose
+    /// answers are all asked at once, as on the first connection. Called while the poll
+    /// connection is closed.
+    pub fn robot_moved(&mut self) {
+        for s in &mut self.schedules {
+            s.due = None;
+        }
     }
 
     /// A navigation task started or ended: 1007 polls run only in between.
@@ -132,6 +147,9 @@ impl Monitor {
     /// The poll to send at `now`, if one is due; the most overdue goes first, ties in the
     /// order status, perception, battery, motor temperatures, navigation status.
     pub fn next_poll(&mut self, now: Instant) -> Option<Request> {
+        if !self.connected {
+            return None;
+        }
         let s = self
             .schedules
             .iter_mut()
@@ -144,6 +162,9 @@ impl Monitor {
 
     /// When the next poll is due; `None` while disconnected.
     pub fn next_deadline(&self) -> Option<Instant> {
+        if !self.connected {
+            return None;
+        }
         self.schedules.iter().filter_map(|s| s.due).min()
     }
 
