@@ -1151,8 +1151,8 @@ proptest! {
 
     /// A document with another declaration (double or single quotes, a space before `?>`, a
     /// byte-order mark, or none), re-indented as robots do, with tabs, CR LF or no whitespace
-    /// at all, and
-    /// with a comment inside `<Items>`, decodes to the same message.
+    /// at all, with a comment inside `<Items>`, and followed by NUL bytes (a C string's
+    /// terminator counted in the frame's length), decodes to the same message.
     #[test]
     fn decoders_tolerate_layout(
         message in message(),
@@ -1171,13 +1171,15 @@ proptest! {
             Just(Indent::CrLfSpaces),
         ],
         comment in proptest::option::of((any::<Index>(), "[a-zA-Z0-9 <>&;'\"=/?!.\u{6ce8}\u{91ca}]{0,24}")),
+        nuls in 0usize..3,
     ) {
         let body = message.encode_to_vec(&time)?;
         let mut lines = lines_of(&body);
         if let Some((at, comment)) = &comment {
             insert_comment(&mut lines, *at, comment);
         }
-        let relaid = render(declaration, indent, &lines);
+        let mut relaid = render(declaration, indent, &lines);
+        relaid.resize(relaid.len() + nuls, 0);
         check_shortcuts(&relaid)?;
         prop_assert_eq!(
             message.decode_like(&relaid),

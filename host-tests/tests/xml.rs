@@ -226,6 +226,14 @@ fn rejects_trailing_garbage() {
     );
     // Whitespace and comments after the root are fine.
     assert_obstacle(&format!("{BODY}\n\n<!-- end -->\n"));
+    // So are NUL bytes at the very end (a C string's terminator counted in the length),
+    // but not before anything else.
+    assert_obstacle(&format!("{BODY}\0"));
+    assert_obstacle(&format!("{BODY}\n\0\0\0"));
+    assert_eq!(
+        xml_error(&format!("{BODY}\0\n")),
+        XmlErrorKind::TrailingContent
+    );
 }
 
 #[test]

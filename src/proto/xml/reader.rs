@@ -97,9 +97,18 @@ pub struct SimpleElement<'a> {
 }
 
 impl<'a> Tokenizer<'a> {
-    /// A tokenizer for a whole document with exactly one root element.
+    /// A tokenizer for a whole document with exactly one root element. A UTF-8 byte order
+    /// mark before it and NUL bytes after it are not part of it.
     pub fn document(input: &'a [u8]) -> Self {
         let input = input.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(input);
+        // A sender that counts a C string's terminator in the frame's length leaves a NUL
+        // after the document. It is not XML, but the XML libraries robots and their clients
+        // use read a string only up to it, so it is dropped rather than the message refused.
+        let end = input
+            .iter()
+            .rposition(|&b| b != 0)
+            .map_or(0, |last| last + 1);
+        let input = input.get(..end).unwrap_or(input);
         Self {
             input,
             pos: 0,
