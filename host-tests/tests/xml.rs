@@ -2,6 +2,7 @@
 //! and what it rejects, each with a typed error.
 
 use x30_panel::proto::message::{DecodeError, Request, Response};
+use x30_panel::proto::time::Timestamp;
 use x30_panel::proto::xml::reader::{MAX_DEPTH, Token, Tokenizer, XmlErrorKind};
 use x30_panel::proto::xml::{StructureError, read_document};
 
@@ -210,6 +211,28 @@ fn rejects_mismatched_tags() {
     );
 }
 
+/// The robot does not act on `Time`: one it cannot read costs the time (read as the all-zero
+/// one of a body without `Time`, which the clock ignores), not the message.
+#[test]
+fn an_unreadable_time_reads_as_none_and_keeps_the_message() {
+    for time in [
+        "yesterday",
+        "",
+        "2023-01-01T00:00:00",
+        "2023-01-01 00:00:00.250",
+        "2023-1-1 0:0:0",
+    ] {
+        let xml = BODY.replace("2023-01-01 00:00:00", time);
+        assert_obstacle(&xml);
+        for decoded in [
+            Response::decode(xml.as_bytes()),
+            Response::decode_general(xml.as_bytes()),
+        ] {
+            assert_eq!(decoded.map(|d| d.time), Ok(Timestamp::default()), "{xml}");
+        }
+    }
+}
+
 #[test]
 fn rejects_trailing_garbage() {
     assert_eq!(
@@ -320,10 +343,6 @@ fn wrong_root_and_missing_header_elements() {
         obstacle(&BODY.replace("<Type>2002</Type>", "<Type>x</Type>")),
         Err(DecodeError::Structure(StructureError::BadNumber("Type", _)))
     ));
-    assert_eq!(
-        obstacle(&BODY.replace("2023-01-01 00:00:00", "yesterday")),
-        Err(DecodeError::Structure(StructureError::BadTime))
-    );
     assert_eq!(
         obstacle(&BODY.replace("<ObsState>1</ObsState>", "<ObsState><X>1</X></ObsState>")),
         Err(DecodeError::ItemNotText("ObsState"))

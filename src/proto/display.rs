@@ -89,7 +89,6 @@ impl Display for StructureError {
             Self::MissingElement(name) => write!(f, "<{name}> is missing"),
             Self::NotText(name) => write!(f, "<{name}> holds elements, not text"),
             Self::BadNumber(name, e) => write!(f, "<{name}>: {e}"),
-            Self::BadTime => f.write_str("<Time> is not YYYY-MM-DD HH:MM:SS"),
             Self::TooManyItemsBlocks => f.write_str("too many <Items> blocks"),
         }
     }

@@ -36,8 +36,6 @@ pub enum StructureError {
     NotText(&'static str),
     /// `Type` or `Command` is not an integer.
     BadNumber(&'static str, NumberError),
-    /// `Time` is not `YYYY-MM-DD HH:MM:SS`.
-    BadTime,
     /// More than [`MAX_ITEMS_BLOCKS`] `<Items>` blocks.
     TooManyItemsBlocks,
 }
@@ -248,7 +246,10 @@ impl Header {
                     .map_err(|e| StructureError::BadNumber(element.name(), e))?;
                 *slot = Some(value);
             }
-            None => self.time = Timestamp::decode(text).map_err(|_| StructureError::BadTime)?,
+            // The robot does not act on the time, so a sender's other format (a `T` between
+            // date and time, fractions of a second) costs only the time, read as the
+            // all-zero one a body without `Time` has, not the message.
+            None => self.time = Timestamp::decode(text).unwrap_or_default(),
         }
         Ok(())
     }
