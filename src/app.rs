@@ -508,6 +508,7 @@ impl App<'_> {
                 }
                 Err(e) => {
                     warn!("poll connection lost: {:?}", e);
+                    self.panel(|p| p.poll_lost(&poll, Instant::now()));
                     retry_at = Instant::now() + conn.reconnect_delay(STABLE_AFTER);
                     self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
                 }

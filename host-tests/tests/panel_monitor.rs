@@ -163,6 +163,34 @@ fn a_robot_that_hangs_up_after_each_answer_is_asked_every_poll_in_turn_and_a_new
 }
 
 #[test]
+fn a_poll_lost_with_its_connection_goes_first_on_the_next() {
+    let mut m = Monitor::new(&Config::default());
+    // Each connection gets one poll answered; the next one due, if any, is written, and the
+    // robot hangs up before answering it.
+    let mut answered = Vec::new();
+    for n in 0..4 {
+        let now = at(n * 20);
+        m.connection(ConnectionState::Open, now);
+        answered.extend(m.next_poll(now));
+        if let Some(lost) = m.next_poll(now) {
+            m.poll_lost(&lost, now);
+        }
+        m.connection(ConnectionState::Connecting, now + Duration::from_millis(10));
+    }
+    answered.sort_by_key(|r| r.message_type().raw());
+    assert_eq!(
+        answered,
+        [
+            Request::Status,
+            Request::MotorTemperatures,
+            Request::Battery,
+            Request::Perception,
+        ],
+        "each poll answered once in four connections"
+    );
+}
+
+#[test]
 fn a_late_wake_up_polls_once_and_keeps_the_period() {
     let mut m = Monitor::new(&Config::default());
     m.connection(ConnectionState::Open, at(0));

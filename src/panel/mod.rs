@@ -179,6 +179,11 @@ impl Panel {
         self.network = state;
     }
 
+    /// A poll's connection was lost before its answer (see [`Monitor::poll_lost`]).
+    pub fn poll_lost(&mut self, request: &Request, now: Instant) {
+        self.monitor.poll_lost(request, now);
+    }
+
     /// The robot's address changed (see [`Monitor::robot_moved`]).
     pub fn robot_moved(&mut self) {
         self.monitor.robot_moved();

@@ -127,6 +127,17 @@ impl Monitor {
         self.schedule_nav(now);
     }
 
+    /// The poll `request` went unanswered because its connection was lost: it goes on the
+    /// next connection before the polls that were answered. Otherwise a robot that hangs up
+    /// after each answer would lose the same poll, the one after the status, every time.
+    pub fn poll_lost(&mut self, request: &Request, now: Instant) {
+        for s in &mut self.schedules {
+            if s.kind.request() == *request && s.due.is_some() {
+                s.due = Some(now);
+            }
+        }
+    }
+
     /// The robot's address changed: the next connection goes to another robot, whose
     /// answers are all asked at once, as on the first connection. Called while the poll
     /// connection is closed.
