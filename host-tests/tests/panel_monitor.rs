@@ -43,6 +43,19 @@ fn counts(polls: &BTreeMap<i32, Vec<u64>>) -> Vec<(i32, usize)> {
     polls.iter().map(|(t, v)| (*t, v.len())).collect()
 }
 
+/// Every poll but the navigation status, in the order they go out when due together.
+const EVERY_POLL: [Request; 4] = [
+    Request::Status,
+    Request::Perception,
+    Request::Battery,
+    Request::MotorTemperatures,
+];
+
+/// Every poll due at `now`, in the order they go out.
+fn due(m: &mut Monitor, now: Instant) -> Vec<Request> {
+    std::iter::from_fn(|| m.next_poll(now)).collect()
+}
+
 #[test]
 fn one_minute_of_polls() {
     let mut m = Monitor::new(&Config::default());
@@ -84,7 +97,7 @@ fn nothing_is_polled_while_disconnected() {
     assert_eq!(m.next_deadline(), None);
     // Connecting while a task runs starts its 1007 polls too, a period later.
     m.connection(ConnectionState::Open, at(20_000));
-    let polls: Vec<_> = std::iter::from_fn(|| m.next_poll(at(21_000))).collect();
+    let polls = due(&mut m, at(21_000));
     assert!(polls.contains(&Request::NavStatus), "{polls:?}");
     m.connection(ConnectionState::Connecting, at(25_000));
     assert_eq!(m.next_deadline(), None);
@@ -96,16 +109,7 @@ fn connecting_polls_everything_at_once_in_order() {
     let mut m = Monitor::new(&Config::default());
     m.connection(ConnectionState::Open, at(1000));
     assert_eq!(m.next_deadline(), Some(at(1000)));
-    let first: Vec<_> = std::iter::from_fn(|| m.next_poll(at(1000))).collect();
-    assert_eq!(
-        first,
-        [
-            Request::Status,
-            Request::Perception,
-            Request::Battery,
-            Request::MotorTemperatures
-        ]
-    );
+    assert_eq!(due(&mut m, at(1000)), EVERY_POLL);
     assert_eq!(m.next_deadline(), Some(at(1500)));
     // A second "connected" report does not restart the schedule.
     m.connection(ConnectionState::Open, at(1200));
@@ -124,42 +128,15 @@ fn a_robot_that_hangs_up_after_each_answer_is_asked_every_poll_in_turn_and_a_new
         first_polls.extend(m.next_poll(now));
         m.connection(ConnectionState::Connecting, now + Duration::from_millis(10));
     }
-    assert_eq!(
-        first_polls,
-        [
-            Request::Status,
-            Request::Perception,
-            Request::Battery,
-            Request::MotorTemperatures,
-        ],
-        "then nothing is due until 500 ms"
-    );
+    assert_eq!(first_polls, EVERY_POLL, "then nothing is due until 500 ms");
     // A connection to another robot asks it everything at once.
     m.robot_moved();
     m.connection(ConnectionState::Open, at(200));
-    let all: Vec<_> = std::iter::from_fn(|| m.next_poll(at(200))).collect();
-    assert_eq!(
-        all,
-        [
-            Request::Status,
-            Request::Perception,
-            Request::Battery,
-            Request::MotorTemperatures,
-        ]
-    );
+    assert_eq!(due(&mut m, at(200)), EVERY_POLL);
     m.connection(ConnectionState::Connecting, at(210));
     // A reconnection after a long outage asks everything at once, the most overdue first.
     m.connection(ConnectionState::Open, at(20_000));
-    let all: Vec<_> = std::iter::from_fn(|| m.next_poll(at(20_000))).collect();
-    assert_eq!(
-        all,
-        [
-            Request::Status,
-            Request::Perception,
-            Request::Battery,
-            Request::MotorTemperatures,
-        ]
-    );
+    assert_eq!(due(&mut m, at(20_000)), EVERY_POLL);
 }
 
 #[test]
@@ -196,7 +173,7 @@ fn a_late_wake_up_polls_once_and_keeps_the_period() {
     m.connection(ConnectionState::Open, at(0));
     while m.next_poll(at(0)).is_some() {}
     // Three seconds late: each poll once, not once per missed period.
-    let late: Vec<_> = std::iter::from_fn(|| m.next_poll(at(3000))).collect();
+    let late = due(&mut m, at(3000));
     assert_eq!(late, [Request::Status, Request::Perception]);
     assert_eq!(m.next_deadline(), Some(at(3500)));
 }
