@@ -117,6 +117,13 @@ REAL = {
         ("Electricity", "87"), ("Location", "0"), ("RTKState", "4"), ("GaitState", "6"),
         ("MapUpdateState", "0"), ("MotorState", "0"), ("ChargeState", "0"), ("ControlMode", "1"),
         ("OnDockState", "0")]),
+    # A robot that does not know its pose prints C's words for NaN and infinity.
+    "resp-1002-status-unknown-pose": doc(1002, 1, "2024-11-19 10:42:07", [
+        ("MotionState", "1"), ("PosX", "nan"), ("PosY", "-nan"), ("PosZ", "inf"), ("Roll", "-inf"),
+        ("Pitch", "NaN"), ("Yaw", "Infinity"), ("Speed", "0"), ("CurOdom", "0"), ("SumOdom", "1287.5"),
+        ("Res", "0.05"), ("X0", "-25.6"), ("Y0", "-12.8"), ("H", "1024"), ("Electricity", "87"),
+        ("Location", "1"), ("GaitState", "0"), ("MotorState", "0"), ("ChargeState", "0"),
+        ("ControlMode", "1"), ("OnDockState", "0")]),
     "req-1003-two-blocks-mapid": (
         DQ + "\n<PatrolDevice>\n  <Type>1003</Type>\n  <Command>1</Command>\n  <Time>2024-11-19 10:42:07</Time>\n"
         + "".join("  <Items>\n" + "".join(f"    <{k}>{v}</{k}>\n" for k, v in items) + "  </Items>\n"

@@ -698,7 +698,7 @@ async fn leds_follow_the_robot() {
 
 #[tokio::test(flavor = "current_thread")]
 async fn every_fault_injection_option_is_survived() {
-    let options: [(&str, Faults); 8] = [
+    let options: [(&str, Faults); 9] = [
         (
             "delay",
             Faults {
@@ -731,6 +731,13 @@ async fn every_fault_injection_option_is_survived() {
             "unknown items",
             Faults {
                 unknown_items: true,
+                ..Default::default()
+            },
+        ),
+        (
+            "unknown pose",
+            Faults {
+                unknown_pose: true,
                 ..Default::default()
             },
         ),

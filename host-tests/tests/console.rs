@@ -293,6 +293,29 @@ fn status_tells_the_connection_battery_motion_and_fault() {
     assert!(starting.contains("starting"), "{starting}");
 }
 
+/// A robot that is not localised reports its pose as `nan`: neither the dock nor a route
+/// point is taken from it, and the answer says why.
+#[test]
+fn an_unknown_pose_is_not_taken() {
+    let mut s = Settings::new(Config::default());
+    let before = s.clone();
+    for unknown in [f32::NAN, f32::INFINITY] {
+        let mut lost = snapshot();
+        if let Some(status) = &mut lost.status {
+            status.value.pos_y = unknown;
+        }
+        for line in ["dock here", "route add here"] {
+            let (action, answer) = run_line(line, &mut s, Some(&lost));
+            assert_eq!(action, Action::Answered, "{line}: {answer}");
+            assert!(
+                answer.contains("does not know its pose"),
+                "{line}: {answer}"
+            );
+        }
+    }
+    assert_eq!(s, before);
+}
+
 #[test]
 fn dock_here_takes_the_robots_pose() {
     let mut s = Settings::new(Config::default());

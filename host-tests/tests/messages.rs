@@ -1001,6 +1001,88 @@ fn non_finite_floats_are_refused_by_name() {
     );
 }
 
+/// A robot's C library prints a float it has no value for as `nan` or `inf`: an answer may
+/// carry them (its other items are still read, and written back the same way), a request
+/// may not.
+#[test]
+fn answers_may_report_nan_and_infinity_and_requests_may_not() {
+    use x30_panel::proto::xml::number::NumberError;
+    let unknown_pose = STATUS_WITH_EVERY_ITEM
+        .replace(">12.3456783<", ">nan<")
+        .replace(">-0.00023393621<", ">-nan<")
+        .replace(">0.0312<", ">INF<")
+        .replace(">0.0012<", ">-Infinity<");
+    for decode in [Response::decode, Response::decode_general] {
+        let decoded = decode(unknown_pose.as_bytes()).expect("an answer with nan and inf");
+        let Response::Status(status) = decoded.message else {
+            panic!("{decoded:?}");
+        };
+        assert!(status.pos_x.is_nan() && status.pos_x.is_sign_positive());
+        assert!(status.pos_y.is_nan() && status.pos_y.is_sign_negative());
+        assert_eq!(
+            (status.pos_z, status.roll),
+            (f32::INFINITY, f32::NEG_INFINITY)
+        );
+        assert_eq!((status.pitch, status.h), (-0.0034, 800), "the other items");
+    }
+    let decoded = response(&unknown_pose);
+    let mut buf = [0u8; 4096];
+    let n = decoded.message.encode(&decoded.time, &mut buf).unwrap();
+    let text = String::from_utf8_lossy(&buf[..n]);
+    for line in [
+        "<PosX>nan</PosX>",
+        "<PosY>-nan</PosY>",
+        "<PosZ>inf</PosZ>",
+        "<Roll>-inf</Roll>",
+    ] {
+        assert!(text.contains(line), "{line} in\n{text}");
+    }
+    let again = Response::decode(&buf[..n]).unwrap();
+    assert_eq!(format!("{again:?}"), format!("{decoded:?}"), "{text}");
+    // Anything else that is not a number is still refused in an answer.
+    for text in ["nan1", "na", "infinit", "+-inf", "nan()"] {
+        assert_eq!(
+            Response::decode(
+                STATUS_WITH_EVERY_ITEM
+                    .replace(">12.3456783<", &format!(">{text}<"))
+                    .as_bytes()
+            ),
+            Err(DecodeError::BadItem {
+                item: "PosX",
+                error: NumberError::Invalid
+            }),
+            "{text}"
+        );
+    }
+    let envelope = |message_type: &str, items: &str| {
+        format!(
+            "<PatrolDevice><Type>{message_type}</Type><Command>1</Command>\
+             <Time>2023-01-01 00:00:00</Time><Items>{items}</Items></PatrolDevice>"
+        )
+    };
+    let requests = [
+        (envelope("2", "<Value>nan</Value>"), "Value"),
+        (
+            envelope(
+                "2101",
+                "<PosX>1</PosX><PosY>inf</PosY><PosZ>0</PosZ><Yaw>0</Yaw>",
+            ),
+            "PosY",
+        ),
+        (NAV_REQUEST.replace("<PosX>0.0<", "<PosX>-nan<"), "PosX"),
+    ];
+    for (body, item) in requests {
+        assert_eq!(
+            Request::decode(body.as_bytes()),
+            Err(DecodeError::BadItem {
+                item,
+                error: NumberError::Invalid
+            }),
+            "{body}"
+        );
+    }
+}
+
 #[test]
 fn commands_beyond_the_protocol_are_decoded_always_and_sent_only_with_the_feature() {
     let beyond = [

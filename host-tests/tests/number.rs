@@ -4,7 +4,7 @@
 use proptest::prelude::*;
 use x30_panel::proto::xml::number::{
     F32_TEXT_MAX, I32_TEXT_MAX, NumberError, parse_f32, parse_i64, parse_int, parse_int_prefix,
-    write_f32, write_i32,
+    parse_non_finite, write_f32, write_i32, write_non_finite,
 };
 
 /// Our text for a finite float.
@@ -478,6 +478,57 @@ fn write_rejects_non_finite() {
     let mut out = [0u8; F32_TEXT_MAX];
     for x in [f32::NAN, -f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
         assert_eq!(write_f32(x, &mut out), Err(NumberError::NotFinite));
+    }
+}
+
+/// C's words for NaN and infinity (answers only; `parse_f32` refuses them, above) read
+/// back as what they name, and `write_non_finite` writes what glibc's `printf` writes.
+#[test]
+fn non_finite_words_as_c_writes_them() {
+    let bits = |x: Option<f32>| x.map(f32::to_bits);
+    for (text, value) in [
+        ("nan", f32::NAN),
+        ("NaN", f32::NAN),
+        ("+nan", f32::NAN),
+        ("-nan", -f32::NAN),
+        ("-NAN", -f32::NAN),
+        ("inf", f32::INFINITY),
+        ("INF", f32::INFINITY),
+        ("Infinity", f32::INFINITY),
+        ("-inf", f32::NEG_INFINITY),
+        ("-infinity", f32::NEG_INFINITY),
+    ] {
+        assert_eq!(
+            bits(parse_non_finite(text.as_bytes())),
+            Some(value.to_bits()),
+            "{text}"
+        );
+    }
+    for text in [
+        "",
+        "-",
+        "na",
+        "nan0",
+        "nan(1)",
+        "in",
+        "infinit",
+        "infinityy",
+        "--inf",
+        "1",
+        "0.5",
+    ] {
+        assert_eq!(parse_non_finite(text.as_bytes()), None, "{text:?}");
+    }
+    let mut out = [0u8; F32_TEXT_MAX];
+    for (value, text) in [
+        (f32::NAN, "nan"),
+        (-f32::NAN, "-nan"),
+        (f32::INFINITY, "inf"),
+        (f32::NEG_INFINITY, "-inf"),
+        (1.5, ""),
+    ] {
+        let n = write_non_finite(value, &mut out);
+        assert_eq!(&out[..n], text.as_bytes(), "{value}");
     }
 }
 

@@ -325,7 +325,8 @@ fn dock(
 }
 
 /// The pose (PosX, PosY, PosZ, Yaw) of a readable status at most [`POSE_MAX_AGE`] old, or
-/// an answer saying there is none.
+/// an answer saying there is none. A robot that is not localised reports `nan`, which is no
+/// place to send it back to.
 fn robot_pose(snapshot: Option<&Snapshot>, now: Instant, answer: &mut Answer) -> Option<[f32; 4]> {
     let status = snapshot
         .and_then(|s| s.status)
@@ -340,7 +341,15 @@ fn robot_pose(snapshot: Option<&Snapshot>, now: Instant, answer: &mut Answer) ->
         return None;
     };
     let s = status.value;
-    Some([s.pos_x, s.pos_y, s.pos_z, s.yaw])
+    let pose = [s.pos_x, s.pos_y, s.pos_z, s.yaw];
+    if !pose.iter().all(|v| v.is_finite()) {
+        let _ = writeln!(
+            answer,
+            "the robot does not know its pose (it reports nan or inf): is it localised?"
+        );
+        return None;
+    }
+    Some(pose)
 }
 
 /// `route show`, `route clear`, `route add here [TYPE]`, `route add X Y Z YAW [TYPE]`.

@@ -25,6 +25,17 @@ pub enum Kind {
     Byte,
 }
 
+/// Who wrote a document, which decides the float texts it may carry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Sender {
+    /// A client's request: every float is a number, since the robot acts on it.
+    Client,
+    /// The robot's answer: a float may also be C's `nan` or `inf`, which a robot prints for
+    /// a reading it does not have (an unknown pose); refusing the whole answer for it would
+    /// leave the panel without the robot's state and its e-stop unconfirmed.
+    Robot,
+}
+
 /// One item of a message: its element name, what it holds, and whether it may be absent.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ItemSpec {
@@ -178,10 +189,10 @@ pub trait ItemSet: Sized {
         (Self::SPEC, self.to_values(values))
     }
 
-    /// Reads the items of one block; unknown items are skipped, a missing required one is
-    /// an error naming it.
+    /// Reads the items of one request block; unknown items are skipped, a missing required
+    /// one is an error naming it.
     fn read_items(items: &mut Items<'_>) -> Result<Self, DecodeError> {
-        let (values, present) = read_values(items, Self::TABLE)?;
+        let (values, present) = read_values(items, Self::TABLE, Sender::Client)?;
         Ok(Self::from_values(&values, present))
     }
 }
@@ -257,12 +268,14 @@ pub(crate) fn write_values(
 }
 
 /// Reads a block's items, by position in `table`, and which were found; unknown items are
-/// skipped, and a missing required one is an error naming it. One copy serves every
+/// skipped, and a missing required one is an error naming it. Floats are read as `sender`
+/// may write them. One copy serves every
 /// table, so the values have room for the largest.
 #[inline(never)]
 pub(crate) fn read_values(
     items: &mut Items<'_>,
     table: &Table,
+    sender: Sender,
 ) -> Result<(Values, Present), DecodeError> {
     let Table {
         spec,
@@ -297,7 +310,7 @@ pub(crate) fn read_values(
             }
             match items.next_plain(spec.name) {
                 Some((item, true)) => {
-                    *value = parse_text(item.text, spec)?;
+                    *value = parse_text(item.text, spec, sender)?;
                     present |= 1 << next;
                     next += 1;
                     continue;
@@ -323,7 +336,7 @@ pub(crate) fn read_values(
         };
         let known = index.and_then(|i| Some((i, spec.get(i)?, values.get_mut(i)?)));
         if let Some((index, spec, value)) = known {
-            *value = parse_text(item.text, spec)?;
+            *value = parse_text(item.text, spec, sender)?;
             present |= 1 << index;
             next = index + 1;
         }
@@ -337,16 +350,27 @@ pub(crate) fn read_values(
     }
 }
 
-/// Parses one item's text (`None`: it holds elements) as its spec says, naming the item on
-/// failure.
-pub(crate) fn parse_text(text: Option<&[u8]>, spec: &ItemSpec) -> Result<u32, DecodeError> {
+/// Parses one item's text (`None`: it holds elements) as its spec says and its `sender` may
+/// write it, naming the item on failure.
+pub(crate) fn parse_text(
+    text: Option<&[u8]>,
+    spec: &ItemSpec,
+    sender: Sender,
+) -> Result<u32, DecodeError> {
     let bad = |error| DecodeError::BadItem {
         item: spec.name,
         error,
     };
     let text = text.ok_or(DecodeError::ItemNotText(spec.name))?;
     match spec.kind {
-        Kind::Float => number::parse_f32(text).map(f32::to_bits).map_err(bad),
+        // The words are tried only once the text is not a number: no cost to the usual case.
+        Kind::Float => match number::parse_f32(text) {
+            Ok(value) => Ok(value.to_bits()),
+            Err(error) => match (sender, number::parse_non_finite(text)) {
+                (Sender::Robot, Some(value)) => Ok(value.to_bits()),
+                _ => Err(bad(error)),
+            },
+        },
         Kind::Int => number::parse_int::<i32>(text)
             .map(|v| v as u32)
             .map_err(bad),

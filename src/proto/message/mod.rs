@@ -24,7 +24,9 @@ use crate::proto::xml::number::NumberError;
 use crate::proto::xml::reader::{Tokenizer, XmlError};
 use crate::proto::xml::writer::{DocumentWriter, WriteError};
 use crate::proto::xml::{Envelope, Items, StructureError, read_tokens};
-use items::{ItemSet, ItemSpec, Kind, MAX_ITEMS, item_set, parse_text, read_values, write_values};
+use items::{
+    ItemSet, ItemSpec, Kind, MAX_ITEMS, Sender, item_set, parse_text, read_values, write_values,
+};
 
 /// Longest body a valid request encodes to: a 1003 request with [`MAX_NAV_POINTS`]
 /// waypoints whose every number has its longest text. A receiver that accepts bodies this
@@ -405,7 +407,8 @@ impl Response {
 
     /// Writes the XML body into `out`; returns its length.
     pub fn encode(&self, time: &Timestamp, out: &mut [u8]) -> Result<usize, WriteError> {
-        let mut doc = DocumentWriter::begin(out, self.message_type().raw(), self.command(), time)?;
+        let mut doc = DocumentWriter::begin(out, self.message_type().raw(), self.command(), time)?
+            .with_non_finite();
         // Every answer's block is written by one call, from its table and values.
         let mut values = [0; MAX_ITEMS];
         let (spec, present) = match self {
@@ -476,7 +479,7 @@ impl Response {
             MessageType::RequestError => RequestError::TABLE,
             MessageType::Unknown(raw) => return Err(DecodeError::UnknownType(raw)),
         };
-        let (values, present) = read_values(items, table)?;
+        let (values, present) = read_values(items, table, Sender::Robot)?;
         let values = &values;
         Ok(match message_type {
             MessageType::Status => Self::Status(ItemSet::from_values(values, present)),
@@ -510,7 +513,7 @@ fn read_motion(command: i32, items: &mut Items<'_>) -> Result<MotionCommand, Dec
     for item in items {
         let item = item?;
         if item.name == spec.name.as_bytes() {
-            value = Some(parse_text(item.text, spec)?);
+            value = Some(parse_text(item.text, spec, Sender::Client)?);
         }
     }
     let bits = value.ok_or(DecodeError::MissingItem(spec.name))?;

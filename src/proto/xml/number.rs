@@ -505,8 +505,8 @@ impl Approx {
 
 /// Parses a decimal float: optional sign, digits with optional '.', optional exponent (e/E, sign, digits).
 ///
-/// No surrounding whitespace, no "inf"/"nan", no hex; ".5" and "5." are accepted (C `strtod`
-/// does). The result is correctly rounded (round-half-even) to `f32` for inputs of up to 19
+/// No surrounding whitespace, no "inf"/"nan" (answers read those with
+/// [`parse_non_finite`]), no hex; ".5" and "5." are accepted (C `strtod` does). The result is correctly rounded (round-half-even) to `f32` for inputs of up to 19
 /// significant digits. Digits beyond the 19th only set a sticky bit ("something non-zero
 /// follows"), so a longer input whose first 19 digits lie within `10^-18` (relative) below the
 /// midpoint between two floats may round to the lower neighbour instead of the upper: an error
@@ -522,6 +522,43 @@ pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
         magnitude
     })
 }
+
+/// Reads the words C's `printf` writes for a float that has no numeric value: `nan`, `inf`
+/// or `infinity`, optionally signed, in any ASCII case (`-nan`, `INF`).
+///
+/// Only answers are read with it, where a robot reports a reading it does not have (an
+/// unknown pose). [`parse_f32`] refuses these words: a speed typed on the console or a
+/// request's coordinate must be a number.
+pub fn parse_non_finite(text: &[u8]) -> Option<f32> {
+    let (negative, word) = split_sign(text).ok()?;
+    let magnitude = match folded(word) {
+        NAN => f32::NAN,
+        INF | INFINITY => f32::INFINITY,
+        _ => return None,
+    };
+    Some(if negative { -magnitude } else { magnitude })
+}
+
+/// A word of up to eight bytes as one number, its letters folded to lower case; 0 for a
+/// longer one. Setting bit 5 turns no other byte into a letter, and no byte into zero, so
+/// words of different lengths never share a number.
+const fn folded(word: &[u8]) -> u64 {
+    if word.len() > 8 {
+        return 0;
+    }
+    let mut key = 0;
+    let mut rest = word;
+    while let [c, tail @ ..] = rest {
+        key = key << 8 | (*c | 0x20) as u64;
+        rest = tail;
+    }
+    key
+}
+
+/// [`folded`] of the words C prints for NaN and infinity.
+const NAN: u64 = folded(b"nan");
+const INF: u64 = folded(b"inf");
+const INFINITY: u64 = folded(b"infinity");
 
 /// A mantissa at or above this takes no more digits: 19 significant digits are kept, and any
 /// 19 fit a `u64`.
@@ -759,6 +796,29 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
         Window::new(bits).pick()
     };
     Ok(render(value.is_sign_negative(), digits, exponent, len, out))
+}
+
+/// Writes a NaN or an infinity as C's `printf` does (`nan`, `-nan`, `inf`, `-inf`), for
+/// answers that report a reading the robot does not have; returns the length. A finite
+/// `value` writes nothing (0).
+// Out of line: one copy for both places a number item is written, off their usual path.
+#[inline(never)]
+pub fn write_non_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
+    let word: &[u8] = match (
+        value.is_nan(),
+        value.is_infinite(),
+        value.is_sign_negative(),
+    ) {
+        (true, _, false) => b"nan",
+        (true, _, true) => b"-nan",
+        (_, true, false) => b"inf",
+        (_, true, true) => b"-inf",
+        _ => b"",
+    };
+    for (slot, &c) in out.iter_mut().zip(word) {
+        *slot = c;
+    }
+    word.len()
 }
 
 /// How close (in 32.32 units: `2^-16`) an approximate position may come to an integer or a tie

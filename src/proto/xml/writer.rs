@@ -104,17 +104,24 @@ pub(crate) enum Number {
 
 impl Number {
     /// Writes the number's text at the start of `out` and returns its length; the bytes
-    /// after it may be overwritten. `item` names the item in the error for a float with no
-    /// text form.
+    /// after it may be overwritten. A NaN or an infinity is written as C prints it if
+    /// `non_finite` allows, else refused naming `item`.
     #[inline(always)]
-    fn format(self, item: &'static str, out: &mut [u8; NUMBER_MAX]) -> Result<usize, WriteError> {
+    fn format(
+        self,
+        item: &'static str,
+        non_finite: bool,
+        out: &mut [u8; NUMBER_MAX],
+    ) -> Result<usize, WriteError> {
         match self {
             Self::Int(value) => Ok(out
                 .first_chunk_mut::<I32_TEXT_MAX>()
                 .map_or(0, |out| number::write_i32(value, out))),
-            Self::Float(value) => {
-                number::write_f32(value, out).map_err(|_| WriteError::NotFinite { item })
-            }
+            Self::Float(value) => match number::write_f32(value, out) {
+                Ok(n) => Ok(n),
+                Err(_) if non_finite => Ok(number::write_non_finite(value, out)),
+                Err(_) => Err(WriteError::NotFinite { item }),
+            },
         }
     }
 }
@@ -169,6 +176,8 @@ pub struct DocumentWriter<'a> {
     len: usize,
     items_open: bool,
     blocks: usize,
+    /// Whether a NaN or an infinity is written as `nan` or `inf` rather than refused.
+    non_finite: bool,
 }
 
 impl<'a> DocumentWriter<'a> {
@@ -212,7 +221,16 @@ impl<'a> DocumentWriter<'a> {
             len: total,
             items_open: false,
             blocks: 0,
+            non_finite: false,
         })
+    }
+
+    /// Writes NaN and infinities as C's `printf` does (`nan`, `-nan`, `inf`, `-inf`)
+    /// instead of refusing them: an answer may report a reading the robot does not have
+    /// (an unknown pose), a request must not carry one.
+    pub(crate) fn with_non_finite(mut self) -> Self {
+        self.non_finite = true;
+        self
     }
 
     /// Writes an integer item.
@@ -246,7 +264,7 @@ impl<'a> DocumentWriter<'a> {
             .filter(|_| bytes.len() <= NAME_MAX);
         let Some(window) = window else {
             let mut text = [0; NUMBER_MAX];
-            let n = value.format(name, &mut text)?;
+            let n = value.format(name, self.non_finite, &mut text)?;
             return self.number_line(bytes, prefix(&text, n));
         };
         let start = ITEM_INDENT.len() + bytes.len() + 2;
@@ -254,7 +272,7 @@ impl<'a> DocumentWriter<'a> {
             .get_mut(start..)
             .and_then(|rest| rest.first_chunk_mut::<NUMBER_MAX>());
         let n = match text {
-            Some(text) => value.format(name, text)?,
+            Some(text) => value.format(name, self.non_finite, text)?,
             None => 0,
         };
         self.len += item_tags(window, bytes, n);

@@ -81,6 +81,9 @@ pub struct Faults {
     pub unknown_type: bool,
     /// Insert [`UNKNOWN_ITEMS`] between the documented items of every answer.
     pub unknown_items: bool,
+    /// Report the pose as unknown: status answers carry `nan` for each of
+    /// [`UNKNOWN_POSE_ITEMS`], as a robot's C library prints a float it has no value for.
+    pub unknown_pose: bool,
     /// The XML declaration of answers.
     pub declaration: Declaration,
 }
@@ -160,17 +163,25 @@ impl FromStr for Declaration {
     }
 }
 
+/// The items [`Faults::unknown_pose`] writes as `nan`: the robot's position and attitude.
+pub const UNKNOWN_POSE_ITEMS: [&str; 6] = ["PosX", "PosY", "PosZ", "Roll", "Pitch", "Yaw"];
+
 const SINGLE_DECLARATION: &[u8] = b"<?xml version='1.0' encoding='utf-8'?>";
 
-/// Alters an encoded XML body as the faults ask: extra items, another Type, another
-/// declaration. Without those faults the body comes back unchanged.
+/// Alters an encoded XML body as the faults ask: extra items, an unknown pose, another
+/// Type, another declaration. Without those faults the body comes back unchanged.
 pub fn alter_body(body: &[u8], faults: &Faults) -> Vec<u8> {
     let mut body = body.to_vec();
     if faults.unknown_items {
         body = insert_unknown_items(&body);
     }
+    if faults.unknown_pose {
+        for name in UNKNOWN_POSE_ITEMS {
+            body = replace_text(&body, name, "nan");
+        }
+    }
     if faults.unknown_type {
-        body = replace_type(&body, UNKNOWN_TYPE);
+        body = replace_text(&body, "Type", &UNKNOWN_TYPE.to_string());
     }
     if faults.declaration != Declaration::Double {
         body = replace_declaration(&body, faults.declaration);
@@ -214,18 +225,19 @@ fn replace_declaration(body: &[u8], declaration: Declaration) -> Vec<u8> {
     out
 }
 
-/// Replaces the text of the first `<Type>` element.
-fn replace_type(body: &[u8], message_type: i32) -> Vec<u8> {
-    let (Some(open), Some(close)) = (find(body, b"<Type>"), find(body, b"</Type>")) else {
+/// Replaces the text of the first `<name>` element, if there is one.
+fn replace_text(body: &[u8], name: &str, text: &str) -> Vec<u8> {
+    let (open, close) = (format!("<{name}>"), format!("</{name}>"));
+    let (Some(at), Some(end)) = (find(body, open.as_bytes()), find(body, close.as_bytes())) else {
         return body.to_vec();
     };
-    let start = open + b"<Type>".len();
-    if close < start {
+    let start = at + open.len();
+    if end < start {
         return body.to_vec();
     }
     let mut out = body.get(..start).unwrap_or_default().to_vec();
-    out.extend_from_slice(message_type.to_string().as_bytes());
-    out.extend_from_slice(body.get(close..).unwrap_or_default());
+    out.extend_from_slice(text.as_bytes());
+    out.extend_from_slice(body.get(end..).unwrap_or_default());
     out
 }
 
@@ -277,7 +289,7 @@ fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
 mod tests {
     use super::*;
     use x30_panel::proto::codes::CommandResult;
-    use x30_panel::proto::message::{Battery, CommandAck, Response};
+    use x30_panel::proto::message::{Battery, CommandAck, Response, RobotStatus};
     use x30_panel::proto::time::Timestamp;
 
     fn encode(response: &Response) -> Vec<u8> {
@@ -375,6 +387,35 @@ mod tests {
             text(&altered),
             text(&body).replace("<Type>1004</Type>", "<Type>2102</Type>")
         );
+    }
+
+    #[test]
+    fn unknown_pose_writes_nan_and_the_panel_reads_the_rest() {
+        let status = RobotStatus {
+            pos_x: 1.5,
+            roll: 0.25,
+            electricity: 87,
+            ..RobotStatus::UNAVAILABLE
+        };
+        let faults = Faults {
+            unknown_pose: true,
+            ..Faults::default()
+        };
+        let altered = alter_body(&encode(&Response::Status(status)), &faults);
+        let xml = text(&altered);
+        for name in UNKNOWN_POSE_ITEMS {
+            assert!(
+                xml.contains(&format!("<{name}>nan</{name}>")),
+                "{name} in\n{xml}"
+            );
+        }
+        let Response::Status(read) = Response::decode(&altered).unwrap().message else {
+            panic!("{xml}");
+        };
+        assert!(read.pos_x.is_nan() && read.roll.is_nan() && read.yaw.is_nan());
+        assert_eq!(read.electricity, 87);
+        // Answers without a pose are left as they are.
+        assert_eq!(alter_body(&encode(&ack()), &faults), encode(&ack()));
     }
 
     #[test]

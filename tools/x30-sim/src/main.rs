@@ -56,6 +56,10 @@ struct Cli {
     /// Insert undocumented items (AngleYaw, CurRuntime, RTKState, …) into every answer.
     #[arg(long)]
     unknown_items: bool,
+    /// Report the pose as unknown: `nan` for PosX, PosY, PosZ, Roll, Pitch and Yaw in status
+    /// answers.
+    #[arg(long)]
+    unknown_pose: bool,
     /// XML declaration of answers.
     #[arg(long, value_enum, default_value_t = DeclarationArg::Double)]
     declaration: DeclarationArg,
@@ -136,6 +140,7 @@ impl Cli {
                 merge: self.merge,
                 unknown_type: self.unknown_type,
                 unknown_items: self.unknown_items,
+                unknown_pose: self.unknown_pose,
                 declaration: self.declaration.into(),
             },
             log_file: self.log.clone(),

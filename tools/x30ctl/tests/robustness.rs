@@ -165,6 +165,25 @@ fn unknown_items_are_skipped() {
 }
 
 #[test]
+fn an_unknown_pose_is_shown_and_the_rest_of_the_status_read() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        unknown_pose: true,
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["status"])
+        .expect_code(0)
+        .stdout_has("x NaN m, y NaN m, z NaN m")
+        .stdout_has("motion state   force-control stand (3)");
+    let run = x30ctl(&sim, &["status", "--json"]);
+    let status = &run.expect_code(0).json_lines()[0];
+    assert!(status["pos_x"].is_null(), "{status}");
+    assert!(status["map_pixel"].is_null(), "{status}");
+    assert_eq!(status["motion_state"]["code"], 3, "{status}");
+    x30ctl(&sim, &["stop"]).expect_code(0);
+}
+
+#[test]
 fn every_declaration_style_decodes() {
     let sim = sim(1.0);
     for declaration in [Declaration::Single, Declaration::None, Declaration::Double] {
