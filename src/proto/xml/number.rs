@@ -195,10 +195,13 @@ fn decimal_len(n: u32) -> usize {
 /// Bit pattern of +infinity; as a [`Binary`] it decodes to 2^128, the value just above `f32::MAX`.
 const INF_BITS: u32 = 0x7f80_0000;
 
-/// `5^k` for `k <= 15`, exactly: odd, so it is its table entry without the trailing zeros.
+/// `5^k` for `k <= 15`, exactly: its table entry shifted back down by as much as normalising
+/// shifted it up. The shift comes from `k`, alongside the load, rather than from the
+/// entry's trailing zeros after it: the float writer waits on this (measured: 1.5 % of a
+/// 1002 encode).
 fn pow5(k: u32) -> u64 {
     let m = table(&POW5_FINE, k as usize);
-    m >> m.trailing_zeros()
+    m >> (63 - log2_pow5(k as i32))
 }
 
 /// `floor(k·log2(5))` for `-64 <= k < 64` (in 12.20 fixed point; checked for each such `k`).
