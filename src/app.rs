@@ -500,6 +500,7 @@ impl App<'_> {
                 Ok(response) => self.polled(conn, &response),
                 Err(e) if e.connection_usable() => {
                     warn!("poll failed: {:?}", e);
+                    self.panel(|p| p.poll_failed(&poll, Instant::now()));
                     if conn.health(Instant::now()) == Health::Silent {
                         warn!("the robot stopped answering polls: reconnecting");
                         retry_at = Instant::now() + conn.give_up().await;

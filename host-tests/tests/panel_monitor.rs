@@ -168,6 +168,71 @@ fn a_poll_lost_with_its_connection_goes_first_on_the_next() {
 }
 
 #[test]
+fn the_status_goes_first_whenever_it_is_due() {
+    let mut m = Monitor::new(&Config::default());
+    m.connection(ConnectionState::Open, at(0));
+    assert_eq!(due(&mut m, at(0)), EVERY_POLL);
+    // Only the status is taken at 5200; by 5800 perception and battery are more overdue.
+    assert_eq!(m.next_poll(at(5200)), Some(Request::Status));
+    assert_eq!(
+        due(&mut m, at(5800)),
+        [Request::Status, Request::Perception, Request::Battery]
+    );
+}
+
+/// Steps the monitor from `now` to each next deadline until `request` goes out (at most
+/// `limit` polls); when it went.
+fn next_time_asked(
+    m: &mut Monitor,
+    mut now: Instant,
+    request: Request,
+    limit: usize,
+) -> Option<u64> {
+    for _ in 0..limit {
+        if due(m, now).contains(&request) {
+            return Some(now.as_millis());
+        }
+        now = m.next_deadline()?.max(now);
+    }
+    None
+}
+
+#[test]
+fn a_poll_that_keeps_failing_is_asked_less_often_until_it_is_answered() {
+    let mut m = Monitor::new(&Config::default());
+    m.connection(ConnectionState::Open, at(0));
+    assert_eq!(due(&mut m, at(0)), EVERY_POLL);
+    // The battery (every 5 s) fails each time: asked again after 10, 20, 40, then 60 s.
+    let mut asked = vec![0];
+    for _ in 0..5 {
+        let failed = at(*asked.last().unwrap());
+        m.poll_failed(&Request::Battery, failed);
+        asked.extend(next_time_asked(&mut m, failed, Request::Battery, 1000));
+    }
+    assert_eq!(asked, [0, 10_000, 30_000, 70_000, 130_000, 190_000]);
+    // Answered: every 5 s again.
+    m.poll_answered(&Response::Battery(battery()));
+    assert_eq!(
+        next_time_asked(&mut m, at(190_000), Request::Battery, 1000),
+        Some(195_000)
+    );
+    // The status never falls back: the LEDs and the e-stop's confirmation wait on it.
+    let status_due = m.next_deadline().unwrap();
+    m.poll_failed(&Request::Status, at(190_000));
+    assert!(due(&mut m, status_due).contains(&Request::Status));
+    // A new robot starts afresh.
+    m.poll_failed(&Request::Battery, at(195_000));
+    m.connection(ConnectionState::Connecting, at(195_100));
+    m.robot_moved();
+    m.connection(ConnectionState::Open, at(196_000));
+    assert_eq!(due(&mut m, at(196_000)), EVERY_POLL);
+    assert_eq!(
+        next_time_asked(&mut m, at(196_000), Request::Battery, 1000),
+        Some(201_000)
+    );
+}
+
+#[test]
 fn a_late_wake_up_polls_once_and_keeps_the_period() {
     let mut m = Monitor::new(&Config::default());
     m.connection(ConnectionState::Open, at(0));

@@ -184,6 +184,11 @@ impl Panel {
         self.monitor.poll_lost(request, now);
     }
 
+    /// The poll `request` failed, its connection still open (see [`Monitor::poll_failed`]).
+    pub fn poll_failed(&mut self, request: &Request, now: Instant) {
+        self.monitor.poll_failed(request, now);
+    }
+
     /// The robot's address changed (see [`Monitor::robot_moved`]).
     pub fn robot_moved(&mut self) {
         self.monitor.robot_moved();
@@ -237,6 +242,7 @@ impl Panel {
 
     /// A poll's answer arrived at `now`.
     pub fn poll_answered(&mut self, response: &Response, now: Instant) {
+        self.monitor.poll_answered(response);
         self.view.update(response, now);
         // An all-zero status says nothing about the motion state.
         if let Response::Status(status) = response

@@ -23,6 +23,10 @@ use crate::proto::message::{
 /// older counts as unavailable.
 pub const STALE_AFTER_POLLS: u32 = 4;
 
+/// The longest a poll other than the status is put back after failing again and again
+/// ([`Monitor::poll_failed`]), unless its own period is longer.
+pub const MAX_BACKOFF: Duration = Duration::from_secs(60);
+
 /// One periodic poll.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -33,6 +37,19 @@ struct Schedule {
     period: Duration,
     /// When next, kept while disconnected; `None` while this poll is off.
     due: Option<Instant>,
+    /// Whether it goes before every other poll: its connection was lost before its answer.
+    first: bool,
+    /// How many times in a row it failed (no answer in time, or none that could be read).
+    failures: u8,
+}
+
+impl Schedule {
+    /// How long after a failure this poll is asked again: its period, doubled for each
+    /// failure in a row, up to [`MAX_BACKOFF`] (or its period, if longer).
+    fn backoff(&self) -> Duration {
+        let doublings = u32::from(self.failures.min(16));
+        (self.period * (1 << doublings)).min(MAX_BACKOFF.max(self.period))
+    }
 }
 
 /// The kinds of poll, in the order they go out when due together.
@@ -92,6 +109,8 @@ impl Monitor {
             kind,
             period,
             due: None,
+            first: false,
+            failures: 0,
         };
         Self {
             schedules: [
@@ -134,6 +153,40 @@ impl Monitor {
         for s in &mut self.schedules {
             if s.kind.request() == *request && s.due.is_some() {
                 s.due = Some(now);
+                s.first = true;
+            }
+        }
+    }
+
+    /// The poll `request` failed at `now` on a connection that stays open: no answer in
+    /// time, or one that could not be read. A poll other than the status is then put back
+    /// by twice its period, doubled again for each failure in a row, up to
+    /// [`MAX_BACKOFF`]: a robot that does not answer a Type (an older
+    /// `robot_server` without 1008, say) would otherwise hold the status back for the
+    /// whole wait, again and again. The status keeps its period: it is what the LEDs and
+    /// the e-stop's confirmation wait on.
+    pub fn poll_failed(&mut self, request: &Request, now: Instant) {
+        for s in &mut self.schedules {
+            if s.kind != Poll::Status && s.kind.request() == *request && s.due.is_some() {
+                s.failures = s.failures.saturating_add(1);
+                s.due = Some(now.saturating_add(s.backoff()));
+            }
+        }
+    }
+
+    /// A poll's answer arrived: its kind is asked at its own period again.
+    pub fn poll_answered(&mut self, response: &Response) {
+        let kind = match response {
+            Response::Status(_) => Poll::Status,
+            Response::Perception(_) => Poll::Perception,
+            Response::Battery(_) => Poll::Battery,
+            Response::MotorTemperatures(_) => Poll::MotorTemperatures,
+            Response::NavStatus(_) => Poll::NavStatus,
+            _ => return,
+        };
+        for s in &mut self.schedules {
+            if s.kind == kind {
+                s.failures = 0;
             }
         }
     }
@@ -144,6 +197,8 @@ impl Monitor {
     pub fn robot_moved(&mut self) {
         for s in &mut self.schedules {
             s.due = None;
+            s.first = false;
+            s.failures = 0;
         }
     }
 
@@ -155,8 +210,9 @@ impl Monitor {
         }
     }
 
-    /// The poll to send at `now`, if one is due; the most overdue goes first, ties in the
-    /// order status, perception, battery, motor temperatures, navigation status.
+    /// The poll to send at `now`, if one is due: one lost with its connection first, then
+    /// the status, then the most overdue, ties in the order perception, battery, motor
+    /// temperatures, navigation status.
     pub fn next_poll(&mut self, now: Instant) -> Option<Request> {
         if !self.connected {
             return None;
@@ -166,8 +222,9 @@ impl Monitor {
             .iter_mut()
             .filter(|s| s.due.is_some_and(|due| due <= now))
             // `min_by_key` keeps the first of equal keys, which gives the tie order.
-            .min_by_key(|s| s.due)?;
+            .min_by_key(|s| (!s.first, s.kind != Poll::Status, s.due))?;
         s.due = s.due.map(|due| next_after(due, s.period, now));
+        s.first = false;
         Some(s.kind.request())
     }
 
