@@ -269,8 +269,7 @@ pub(crate) fn write_values(
 
 /// Reads a block's items, by position in `table`, and which were found; unknown items are
 /// skipped, and a missing required one is an error naming it. Floats are read as `sender`
-/// may write them. One copy serves every
-/// table, so the values have room for the largest.
+/// may write them. One copy serves every table, so the values have room for the largest.
 #[inline(never)]
 pub(crate) fn read_values(
     items: &mut Items<'_>,
