@@ -944,9 +944,60 @@ async fn commands_do_not_wait_behind_slow_status_answers() {
     .await;
 }
 
+/// Lets the panel meet the robot for 6 s (the first time round every poll is due, and
+/// each that fails costs its wait), then checks 6 s of polling: the status at least 6
+/// times (12 at its 500 ms), `failing` at most twice. Then an e-stop is confirmed by a
+/// status poll, so it stops repeating: within the status period plus at most one failing
+/// poll's 1.5 s wait. Returns the log of the 6 s.
+async fn check_the_status_is_not_starved(
+    sim: &Simulator,
+    shared: &Shared,
+    failing: i32,
+) -> Vec<LogEntry> {
+    wait_connected(sim).await;
+    sleep(6000).await;
+    let start = sim.elapsed().as_secs_f64();
+    sleep(6000).await;
+    let log: Vec<LogEntry> = sim
+        .requests()
+        .into_iter()
+        .filter(|e| e.t >= start)
+        .collect();
+    let count = |message_type: i32| {
+        log.iter()
+            .filter(|e| e.message_type == Some(message_type))
+            .count()
+    };
+    assert!(count(1002) >= 6, "status polls in 6 s: {}", count(1002));
+    assert!(
+        count(failing) <= 2,
+        "{failing} polls in 6 s: {}",
+        count(failing)
+    );
+    click(shared, Button::Estop).await;
+    assert!(
+        wait_for_log(sim, 3000, |_| sim.snapshot().motion_state
+            == MotionState::SoftEmergencyStop)
+        .await,
+        "the robot is in soft e-stop"
+    );
+    let stopped = sim.elapsed().as_secs_f64();
+    sleep(3000).await;
+    let last = motion(&sim.requests())
+        .into_iter()
+        .filter(|(_, c)| *c == 13)
+        .map(|(t, _)| t)
+        .fold(0.0, f64::max);
+    assert!(
+        last - stopped < 2.5,
+        "e-stops repeated until {last:.2} s, the robot stopped at {stopped:.2} s"
+    );
+    log
+}
+
 /// An older `robot_server` ignores the Types it does not know: those polls are never
-/// answered. Each costs a 1.5 s wait; they are asked less and less often, the status goes
-/// between them, and the connection, which is answering, is kept.
+/// answered. They are asked less and less often, the status goes between them, and the
+/// connection, which is answering, is kept.
 #[tokio::test(flavor = "current_thread")]
 async fn polls_the_robot_never_answers_back_off_and_never_starve_the_status() {
     let sim = simulator(1.0);
@@ -955,52 +1006,30 @@ async fn polls_the_robot_never_answers_back_off_and_never_starve_the_status() {
         type_delays: vec![(2001, never), (2002, never), (1008, never)],
         ..Default::default()
     });
+    let log = with_app(&sim, async |shared| {
+        check_the_status_is_not_starved(&sim, shared, 2002).await
+    })
+    .await;
+    let connections: std::collections::BTreeSet<_> = log.iter().map(|e| e.conn).collect();
+    assert_eq!(
+        connections.len(),
+        1,
+        "the answering robot is not reconnected to"
+    );
+}
+
+/// A stricter `robot_server` hangs up on a Type it does not know. The poll lost with the
+/// connection goes first on the next one only once; lost again, it backs off like an
+/// unanswered one, instead of being the only thing ever asked.
+#[tokio::test(flavor = "current_thread")]
+async fn a_poll_the_robot_hangs_up_on_backs_off_and_never_starves_the_status() {
+    let sim = simulator(1.0);
+    sim.set_faults(Faults {
+        hang_up_on: vec![1008],
+        ..Default::default()
+    });
     with_app(&sim, async |shared| {
-        wait_connected(&sim).await;
-        // The first time round every poll is due and each unanswered one waits its 1.5 s;
-        // after that they fall back.
-        sleep(6000).await;
-        let start = sim.elapsed().as_secs_f64();
-        sleep(6000).await;
-        let log = sim.requests();
-        let since = |message_type: i32| {
-            log.iter()
-                .filter(|e| e.t >= start && e.message_type == Some(message_type))
-                .count()
-        };
-        // 1002 every 500 ms would be 12 in 6 s, 2002 with each of them.
-        assert!(since(1002) >= 6, "status polls in 6 s: {}", since(1002));
-        assert!(since(2002) <= 2, "perception polls in 6 s: {}", since(2002));
-        let connections: std::collections::BTreeSet<_> = log
-            .iter()
-            .filter(|e| e.message_type == Some(1002))
-            .map(|e| e.conn)
-            .collect();
-        assert_eq!(
-            connections.len(),
-            1,
-            "the answering robot is not reconnected to"
-        );
-        // The status still confirms an e-stop, which then stops repeating: within the
-        // status period plus at most one unanswered poll's wait.
-        click(shared, Button::Estop).await;
-        assert!(
-            wait_for_log(&sim, 3000, |_| sim.snapshot().motion_state
-                == MotionState::SoftEmergencyStop)
-            .await,
-            "the robot is in soft e-stop"
-        );
-        let stopped = sim.elapsed().as_secs_f64();
-        sleep(3000).await;
-        let last = motion(&sim.requests())
-            .into_iter()
-            .filter(|(_, c)| *c == 13)
-            .map(|(t, _)| t)
-            .fold(0.0, f64::max);
-        assert!(
-            last - stopped < 2.5,
-            "e-stops repeated until {last:.2} s, the robot stopped at {stopped:.2} s"
-        );
+        check_the_status_is_not_starved(&sim, shared, 1008).await
     })
     .await;
 }

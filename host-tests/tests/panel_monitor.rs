@@ -56,6 +56,24 @@ fn due(m: &mut Monitor, now: Instant) -> Vec<Request> {
     std::iter::from_fn(|| m.next_poll(now)).collect()
 }
 
+/// A 1008 answer with every motor at `celsius`.
+fn motors_at(celsius: f32) -> MotorTemperatures {
+    MotorTemperatures {
+        left_front_sway: celsius,
+        left_front_hip: celsius,
+        left_front_knee: celsius,
+        right_front_sway: celsius,
+        right_front_hip: celsius,
+        right_front_knee: celsius,
+        left_back_sway: celsius,
+        left_back_hip: celsius,
+        left_back_knee: celsius,
+        right_back_sway: celsius,
+        right_back_hip: celsius,
+        right_back_knee: celsius,
+    }
+}
+
 #[test]
 fn one_minute_of_polls() {
     let mut m = Monitor::new(&Config::default());
@@ -233,6 +251,33 @@ fn a_poll_that_keeps_failing_is_asked_less_often_until_it_is_answered() {
 }
 
 #[test]
+fn a_poll_lost_again_and_again_backs_off_and_the_status_is_asked_meanwhile() {
+    let mut m = Monitor::new(&Config::default());
+    m.connection(ConnectionState::Open, at(0));
+    assert_eq!(due(&mut m, at(0)), EVERY_POLL);
+    // The robot hangs up whenever it is asked 1008 (every 10 s).
+    let lose = |m: &mut Monitor, now: Instant| {
+        m.poll_lost(&Request::MotorTemperatures, now);
+        m.connection(ConnectionState::Connecting, now);
+        m.connection(ConnectionState::Open, now + Duration::from_millis(100));
+    };
+    lose(&mut m, at(0));
+    // Lost once: first on the next connection.
+    assert_eq!(m.next_poll(at(100)), Some(Request::MotorTemperatures));
+    lose(&mut m, at(100));
+    // Lost again: put back 40 s (10 s doubled twice); the others go on.
+    assert_eq!(due(&mut m, at(600)), [Request::Status, Request::Perception]);
+    assert_eq!(
+        next_time_asked(&mut m, at(600), Request::MotorTemperatures, 1000),
+        Some(40_100)
+    );
+    // Answered: every 10 s again, and a later loss goes first once more.
+    m.poll_answered(&Response::MotorTemperatures(motors_at(40.0)));
+    lose(&mut m, at(40_100));
+    assert_eq!(m.next_poll(at(40_200)), Some(Request::MotorTemperatures));
+}
+
+#[test]
 fn a_late_wake_up_polls_once_and_keeps_the_period() {
     let mut m = Monitor::new(&Config::default());
     m.connection(ConnectionState::Open, at(0));
@@ -329,23 +374,7 @@ fn all_zero_status_is_unavailable_but_fresh() {
 fn other_answers_go_stale_after_four_periods() {
     let mut v = RobotView::new(&Config::default());
     v.update(&Response::Battery(battery()), at(0));
-    v.update(
-        &Response::MotorTemperatures(MotorTemperatures {
-            left_front_sway: 40.0,
-            left_front_hip: 40.0,
-            left_front_knee: 40.0,
-            right_front_sway: 40.0,
-            right_front_hip: 40.0,
-            right_front_knee: 40.0,
-            left_back_sway: 40.0,
-            left_back_hip: 40.0,
-            left_back_knee: 40.0,
-            right_back_sway: 40.0,
-            right_back_hip: 40.0,
-            right_back_knee: 40.0,
-        }),
-        at(0),
-    );
+    v.update(&Response::MotorTemperatures(motors_at(40.0)), at(0));
     assert!(v.battery(at(19_999)).is_some());
     assert!(v.battery(at(20_000)).is_none());
     assert!(v.motor_temperatures(at(39_999)).is_some());

@@ -146,14 +146,23 @@ impl Monitor {
         self.schedule_nav(now);
     }
 
-    /// The poll `request` went unanswered because its connection was lost: it goes on the
-    /// next connection before the polls that were answered. Otherwise a robot that hangs up
-    /// after each answer would lose the same poll, the one after the status, every time.
+    /// The poll `request` went unanswered because its connection was lost: it goes first
+    /// on the next connection. Otherwise a robot that hangs up after each answer would lose
+    /// the same poll, the one after the status, every time.
+    ///
+    /// Lost again before any answer, a poll other than the status counts as failing
+    /// ([`Monitor::poll_failed`]) instead: a robot that hangs up on a Type it does not know
+    /// would otherwise be asked nothing else, each connection spent on that poll.
     pub fn poll_lost(&mut self, request: &Request, now: Instant) {
         for s in &mut self.schedules {
             if s.kind.request() == *request && s.due.is_some() {
-                s.due = Some(now);
-                s.first = true;
+                s.failures = s.failures.saturating_add(1);
+                if s.failures == 1 || s.kind == Poll::Status {
+                    s.due = Some(now);
+                    s.first = true;
+                } else {
+                    s.due = Some(now.saturating_add(s.backoff()));
+                }
             }
         }
     }

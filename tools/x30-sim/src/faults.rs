@@ -37,8 +37,8 @@ pub const UNKNOWN_ITEMS: [&[u8]; 5] = [
 /// How answers and connections misbehave. The default is a well-behaved robot.
 ///
 /// Every field can be changed while the simulator runs ([`crate::Simulator::set_faults`]).
-/// Each answer uses the faults in force when it is written; `drop_after`, `mute` and
-/// `refuse_estops` also count as each request arrives, and `refuse_connections_until` as
+/// Each answer uses the faults in force when it is written; `drop_after`, `hang_up_on`,
+/// `mute` and `refuse_estops` also count as each request arrives, and `refuse_connections_until` as
 /// each connection arrives.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct Faults {
@@ -68,6 +68,9 @@ pub struct Faults {
     /// Close each connection when it has received this many frames (malformed ones
     /// included), without answering the last one.
     pub drop_after: Option<u64>,
+    /// Close a connection, without answering, when it receives a request of one of these
+    /// Types: a `robot_server` that drops a client asking for a Type it does not know.
+    pub hang_up_on: Vec<i32>,
     /// Put [`GARBAGE`] before each answer frame, in the same write.
     pub garbage: bool,
     /// Write each answer in chunks of this many bytes, about 1 ms apart, each its own write.

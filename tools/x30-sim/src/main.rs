@@ -41,6 +41,10 @@ struct Cli {
     /// Close each connection on receiving its Nth frame, without answering it.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     drop_after: Option<u64>,
+    /// Close a connection, without answering, when it receives a request of this Type
+    /// (repeatable).
+    #[arg(long = "hang-up-on", value_name = "TYPE")]
+    hang_up_on: Vec<i32>,
     /// Send a few garbage bytes (no sync sequence) before each answer frame.
     #[arg(long)]
     garbage: bool,
@@ -135,6 +139,7 @@ impl Cli {
                     .map(|ms| x30_sim::faults::after(Instant::now(), Duration::from_millis(ms))),
                 refuse_estops: self.refuse_estops,
                 drop_after: self.drop_after,
+                hang_up_on: self.hang_up_on.clone(),
                 garbage: self.garbage,
                 split: self.split.and_then(|n| usize::try_from(n).ok()),
                 merge: self.merge,

@@ -389,9 +389,16 @@ impl Connection {
         self.shared.log.record(entry);
         self.received = self.received.saturating_add(1);
         let faults = self.shared.faults();
-        if faults
-            .drop_after
-            .is_some_and(|limit| self.received >= limit)
+        let hang_up = match &received {
+            Received::Request { request, .. } => {
+                faults.hang_up_on.contains(&request.message_type().raw())
+            }
+            Received::Invalid { .. } => false,
+        };
+        if hang_up
+            || faults
+                .drop_after
+                .is_some_and(|limit| self.received >= limit)
         {
             return Flow::Close;
         }

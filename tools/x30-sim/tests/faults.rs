@@ -64,6 +64,26 @@ fn drop_after() {
 }
 
 #[test]
+fn hang_up_on_a_type() {
+    let sim = start_faulty(Faults {
+        hang_up_on: vec![1008],
+        ..Faults::default()
+    });
+    let mut client = Client::connect(sim.addr());
+    client.status();
+    client.send(&Request::MotorTemperatures);
+    assert!(client.closed_within(ms(5000)), "closed on the 1008 request");
+    assert!(
+        client.recv_within(ms(100)).is_none(),
+        "the 1008 was not answered"
+    );
+    assert_eq!(sim.requests().len(), 2, "both were received");
+    // Another connection is answered as before.
+    let mut client = Client::connect(sim.addr());
+    client.status();
+}
+
+#[test]
 fn garbage_precedes_each_answer_frame() {
     let sim = start_faulty(Faults {
         garbage: true,
