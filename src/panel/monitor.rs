@@ -44,11 +44,14 @@ struct Schedule {
 }
 
 impl Schedule {
-    /// How long after a failure this poll is asked again: its period, doubled for each
+    /// Counts a failure at `now` and puts the poll back by its period doubled for each
     /// failure in a row, up to [`MAX_BACKOFF`] (or its period, if longer).
-    fn backoff(&self) -> Duration {
-        let doublings = u32::from(self.failures.min(16));
-        (self.period * (1 << doublings)).min(MAX_BACKOFF.max(self.period))
+    fn fail(&mut self, now: Instant) {
+        self.failures = self.failures.saturating_add(1);
+        // Sixteen doublings of any period a setting allows still fit the 64-bit ticks.
+        let doubled = self.period.as_ticks() << self.failures.min(16);
+        let limit = MAX_BACKOFF.max(self.period).as_ticks();
+        self.due = Some(now.saturating_add(Duration::from_ticks(doubled.min(limit))));
     }
 }
 
@@ -69,6 +72,19 @@ enum Poll {
 }
 
 impl Poll {
+    /// The kind of poll `request` is, if it is one: by its variant, since comparing whole
+    /// requests would link a comparison of every request (navigation tasks included).
+    fn of(request: &Request) -> Option<Self> {
+        Some(match request {
+            Request::Status => Self::Status,
+            Request::Perception => Self::Perception,
+            Request::Battery => Self::Battery,
+            Request::MotorTemperatures => Self::MotorTemperatures,
+            Request::NavStatus => Self::NavStatus,
+            _ => return None,
+        })
+    }
+
     /// The request that asks for this state.
     fn request(self) -> Request {
         match self {
@@ -154,15 +170,13 @@ impl Monitor {
     /// ([`Monitor::poll_failed`]) instead: a robot that hangs up on a Type it does not know
     /// would otherwise be asked nothing else, each connection spent on that poll.
     pub fn poll_lost(&mut self, request: &Request, now: Instant) {
-        for s in &mut self.schedules {
-            if s.kind.request() == *request && s.due.is_some() {
+        if let Some(s) = self.scheduled(request) {
+            if s.failures == 0 || s.kind == Poll::Status {
                 s.failures = s.failures.saturating_add(1);
-                if s.failures == 1 || s.kind == Poll::Status {
-                    s.due = Some(now);
-                    s.first = true;
-                } else {
-                    s.due = Some(now.saturating_add(s.backoff()));
-                }
+                s.due = Some(now);
+                s.first = true;
+            } else {
+                s.fail(now);
             }
         }
     }
@@ -175,12 +189,17 @@ impl Monitor {
     /// whole wait, again and again. The status keeps its period: it is what the LEDs and
     /// the e-stop's confirmation wait on.
     pub fn poll_failed(&mut self, request: &Request, now: Instant) {
-        for s in &mut self.schedules {
-            if s.kind != Poll::Status && s.kind.request() == *request && s.due.is_some() {
-                s.failures = s.failures.saturating_add(1);
-                s.due = Some(now.saturating_add(s.backoff()));
-            }
+        if let Some(s) = self.scheduled(request).filter(|s| s.kind != Poll::Status) {
+            s.fail(now);
         }
+    }
+
+    /// The schedule of the poll `request`, if it is one and on.
+    fn scheduled(&mut self, request: &Request) -> Option<&mut Schedule> {
+        let kind = Poll::of(request)?;
+        self.schedules
+            .iter_mut()
+            .find(|s| s.kind == kind && s.due.is_some())
     }
 
     /// A poll's answer arrived: its kind is asked at its own period again.
