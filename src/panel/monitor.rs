@@ -15,6 +15,7 @@ use embassy_time::{Duration, Instant};
 
 use super::{ConnectionState, next_after};
 use crate::config::{Config, PollPeriods};
+use crate::proto::codes::MessageType;
 use crate::proto::message::{
     Battery, MotorTemperatures, NavResult, NavTaskState, Perception, Request, Response, RobotStatus,
 };
@@ -72,17 +73,11 @@ enum Poll {
 }
 
 impl Poll {
-    /// The kind of poll `request` is, if it is one: by its variant, since comparing whole
-    /// requests would link a comparison of every request (navigation tasks included).
-    fn of(request: &Request) -> Option<Self> {
-        Some(match request {
-            Request::Status => Self::Status,
-            Request::Perception => Self::Perception,
-            Request::Battery => Self::Battery,
-            Request::MotorTemperatures => Self::MotorTemperatures,
-            Request::NavStatus => Self::NavStatus,
-            _ => return None,
-        })
+    /// The Type of this poll's request and of its answer: what requests and answers are
+    /// matched to polls by (comparing whole requests would link a comparison of every
+    /// request, navigation tasks included).
+    fn message_type(self) -> MessageType {
+        self.request().message_type()
     }
 
     /// The request that asks for this state.
@@ -142,8 +137,8 @@ impl Monitor {
     }
 
     /// The poll connection is in `state`: open (every poll that fell due meanwhile at once,
-    /// the most overdue first; on the first connection, all of them, to fill the view) or
-    /// connecting (no polls until it is back).
+    /// in [`Monitor::next_poll`]'s order; on the first connection, all of them, to fill the
+    /// view) or connecting (no polls until it is back).
     ///
     /// Polls keep their times across a reconnection. Were they all made due afresh, a robot
     /// that answers one request and hangs up would only ever be asked the first of them.
@@ -196,24 +191,17 @@ impl Monitor {
 
     /// The schedule of the poll `request`, if it is one and on.
     fn scheduled(&mut self, request: &Request) -> Option<&mut Schedule> {
-        let kind = Poll::of(request)?;
+        let message_type = request.message_type();
         self.schedules
             .iter_mut()
-            .find(|s| s.kind == kind && s.due.is_some())
+            .find(|s| s.kind.message_type() == message_type && s.due.is_some())
     }
 
     /// A poll's answer arrived: its kind is asked at its own period again.
     pub fn poll_answered(&mut self, response: &Response) {
-        let kind = match response {
-            Response::Status(_) => Poll::Status,
-            Response::Perception(_) => Poll::Perception,
-            Response::Battery(_) => Poll::Battery,
-            Response::MotorTemperatures(_) => Poll::MotorTemperatures,
-            Response::NavStatus(_) => Poll::NavStatus,
-            _ => return,
-        };
+        let message_type = response.message_type();
         for s in &mut self.schedules {
-            if s.kind == kind {
+            if s.kind.message_type() == message_type {
                 s.failures = 0;
             }
         }

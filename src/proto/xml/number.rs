@@ -509,8 +509,9 @@ impl Approx {
 /// Parses a decimal float: optional sign, digits with optional '.', optional exponent (e/E, sign, digits).
 ///
 /// No surrounding whitespace, no "inf"/"nan" (answers read those with
-/// [`parse_non_finite`]), no hex; ".5" and "5." are accepted (C `strtod` does). The result is correctly rounded (round-half-even) to `f32` for inputs of up to 19
-/// significant digits. Digits beyond the 19th only set a sticky bit ("something non-zero
+/// [`parse_non_finite`]), no hex; ".5" and "5." are accepted (C `strtod` does). The result
+/// is correctly rounded (round-half-even) to `f32` for inputs of up to 19 significant
+/// digits. Digits beyond the 19th only set a sticky bit ("something non-zero
 /// follows"), so a longer input whose first 19 digits lie within `10^-18` (relative) below the
 /// midpoint between two floats may round to the lower neighbour instead of the upper: an error
 /// of one unit in the last place, for inputs no `float` printer produces. Values that round

@@ -38,8 +38,8 @@ pub const UNKNOWN_ITEMS: [&[u8]; 5] = [
 ///
 /// Every field can be changed while the simulator runs ([`crate::Simulator::set_faults`]).
 /// Each answer uses the faults in force when it is written; `drop_after`, `hang_up_on`,
-/// `mute` and `refuse_estops` also count as each request arrives, and `refuse_connections_until` as
-/// each connection arrives.
+/// `mute` and `refuse_estops` also count as each request arrives, and
+/// `refuse_connections_until` as each connection arrives.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct Faults {
     /// Wait this long before writing each answer, counted from when its request arrived
