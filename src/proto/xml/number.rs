@@ -10,13 +10,14 @@
 //!
 //! # Approximation, then exactness where it matters
 //!
-//! Both directions compute with `Approx`, a 64-bit significand and binary exponent, and
-//! `10^e` as one table entry or one product of two, `5^(16q)` and `5^r` (`e = 16q + r`):
-//! relative error below `2^-62`.
-//! Rounding to `f32` only changes at the *midpoints* between adjacent floats; when the
-//! parser's approximation is too close to one for its error bound, the question is settled
-//! exactly by comparing `n·10^e` with `k·2^e2` as integers of at most 192 bits (`compare`).
-//! That happens for about one input in 2^30, and for exact ties.
+//! Both directions first compute with `Approx`, a 64-bit significand and binary exponent, and
+//! `10^e` as one product of two table entries, `5^(16q)` and `5^r` (`e = 16q + r`): relative
+//! error below `2^-62`.
+//! Rounding to `f32` only changes at the *midpoints* between adjacent floats, and shortest
+//! decimal output only at the ends of a float's rounding interval and at ties between two
+//! candidates; when the approximation is too close to one of those for its error bound, the
+//! question is settled exactly by comparing `n·10^e` with `k·2^e2` as integers of at most 192
+//! bits (`compare`). That happens for about one input in 2^30, and for exact ties.
 //!
 //! # Parsing
 //!
@@ -28,15 +29,14 @@
 //!
 //! `write_f32` prints the shortest decimal that reads back as the same `f32` (ties between two
 //! equally short, equally close candidates go to the larger magnitude), without exponent, exactly
-//! as `format!("{}", x)` does. In units of `10^k`, with `k` the floor of log10 of the float's
-//! rounding interval's width, that interval is at least one and less than ten units wide: it
-//! holds at most one multiple of ten units, which is then the answer, and else the answer is
-//! one of the two integers around the float. Three products by `10^-k` (the float and the
-//! interval's ends, in quarter units, rounded to odd so that comparisons with quarter-unit
-//! integers stay exact) decide it; the scaled values are above the truth by far less than
-//! their rounding can hide, which is checked for every `f32`. The chosen digits (at most nine)
-//! are made at once, eight of them in one word's lanes, and the text, zeros included, is
-//! written with 8-byte stores.
+//! as `format!("{}", x)` does. With `s` chosen so that `y = x·10^s` lies in `[10^8, 10^9)`, every
+//! shortest candidate is an integer number of `y`-units, because the float's rounding interval is
+//! at least ~2.9 units wide: the interval is reduced to the integers `low..=high` it contains,
+//! and the answer is the one with the most trailing zeros, nearest to `y`. `y` and the interval
+//! are held in 32.32 fixed point; for `10^-6 <= x < 10^9` (all values the panel sends in
+//! practice) they are exact there, so no approximation is involved at all. The chosen digits
+//! (at most nine) are made at once, eight of them in one word's lanes, and the text, zeros
+//! included, is written with 8-byte stores.
 //!
 //! Neither direction allocates, uses `unsafe`, or can panic; all buffers are fixed-size arrays.
 
@@ -176,27 +176,17 @@ fn digit(c: u8) -> Option<u8> {
     (d < 10).then_some(d)
 }
 
-/// Number of decimal digits of `n < 10^9` (1 for zero): the binary length times log10(2)
-/// gives it or one less, which one comparison settles.
+/// Number of decimal digits of `n < 10^8` (1 for zero), counted up from one: integers are
+/// mostly short.
 fn decimal_len(n: u32) -> usize {
-    let bits = 32 - (n | 1).leading_zeros();
-    let guess = ((bits * 1233) >> 12) as usize;
-    guess + usize::from(POW10_U32.get(guess).is_some_and(|&p| n | 1 >= p))
+    let mut len = 1;
+    let mut bound = 10;
+    while len < 8 && n >= bound {
+        len += 1;
+        bound *= 10;
+    }
+    len
 }
-
-/// `10^i` for the lengths [`decimal_len`] tells apart.
-const POW10_U32: [u32; 10] = [
-    1,
-    10,
-    100,
-    1_000,
-    10_000,
-    100_000,
-    1_000_000,
-    10_000_000,
-    100_000_000,
-    1_000_000_000,
-];
 
 // ---------------------------------------------------------------------------------------------
 // Floats as integers
@@ -485,14 +475,9 @@ impl Approx {
     /// two table entries, the first within `2^-64` (relative) and the second exact, truncated
     /// (below `2^-63` more), so within `3·2^-64`; exact for `0 <= e < 28`. The exponents
     /// of usual float text, `-19 <= e <= 0` (a fraction's digits), are one entry of
-    /// [`POW10_NEGATIVE`] instead, within `2^-64`, and those the float writer scales usual
-    /// values by, `0 <= e < 16`, one exact entry of [`POW5_FINE`]: each saves the product.
+    /// [`POW10_NEGATIVE`] instead, within `2^-64`, which saves the product.
     fn pow10(e: i32) -> Self {
-        let one_entry = match usize::try_from(e) {
-            Ok(k) => POW5_FINE.get(k),
-            Err(_) => POW10_NEGATIVE.get(e.unsigned_abs() as usize),
-        };
-        if let Some(&m) = one_entry {
+        if let Some(&m) = usize::try_from(-e).ok().and_then(|k| POW10_NEGATIVE.get(k)) {
             return Approx {
                 m,
                 e: e + log2_pow5(e) - 63,
@@ -508,6 +493,12 @@ impl Approx {
             e: log2_pow5(r) - 63 + e,
         };
         coarse.mul(fine)
+    }
+
+    /// The value times 2^32, truncated (for values below 2^31).
+    fn fixed32(self) -> u64 {
+        let shift = (-(self.e + 32)).clamp(0, 64) as u32;
+        self.m.checked_shr(shift).unwrap_or(0)
     }
 }
 
@@ -803,7 +794,11 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
         return Err(NumberError::NotFinite);
     }
     let bits = value.to_bits() & !(1 << 31);
-    let (digits, exponent, len) = if bits == 0 { (0, 0, 1) } else { shortest(bits) };
+    let (digits, exponent, len) = if bits == 0 {
+        (0, 0, 1)
+    } else {
+        Window::new(bits).pick()
+    };
     Ok(render(value.is_sign_negative(), digits, exponent, len, out))
 }
 
@@ -830,72 +825,173 @@ pub fn write_non_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
     word.len()
 }
 
-/// The shortest decimal `digits·10^exponent` that reads back as the positive finite float
-/// `bits`, nearest to it (ties to the larger), and its number of digits.
-///
-/// The float's rounding interval is at least one and less than ten units of `10^k` wide,
-/// for `k = floor(log10(width))`: it holds at most one multiple of ten units, which is then
-/// the shortest candidate (its zeros stripped), and else one or both of the two integers
-/// around the float. So three scaled values decide everything: the float and the two ends
-/// of its interval, in quarter units of `10^k`, rounded to odd (the lowest bit says
-/// "not exact"), which keeps every comparison with a quarter-unit integer exact.
-fn shortest(bits: u32) -> (u32, i32, usize) {
-    let x = Binary::decode(bits);
-    let (c, q) = (u64::from(x.m), x.e);
-    // Ends are inclusive when `c` is even (the reader rounds ties to even).
-    let odd = c & 1;
-    let centre = c << 2;
-    // floor(log10) of the interval's width, 2^q or (where the gap to the next float down is
-    // half as wide) 3/4 of it: log10(2) and log10(4/3) in 14.18 fixed point, exact for
-    // every float's `q` (-149..=104).
-    let (below, k) = if x.narrow_below() {
-        (centre - 1, (q * 78_913 - 32_751) >> 18)
-    } else {
-        (centre - 2, (q * 78_913) >> 18)
-    };
-    // 10^-k as `m·2^e`, rounded up past its error (see `POWER_MARGIN`), then every
-    // quarter-unit value is `m·value·2^(q+e)`: one 64×64-bit product each.
-    let power = Approx::pow10(-k);
-    let g = power.m.saturating_add(POWER_MARGIN);
-    let shift = (q + power.e + 95) as u32;
-    let scaled = |v: u64| {
-        let high = ((u128::from(g) * u128::from(v << shift)) >> 64) as u64;
-        (high >> 31) | u64::from(high as u32 != 0)
-    };
-    let (low, mid, high) = (scaled(below), scaled(centre), scaled(centre + 2));
-    let inside = |units: u32| {
-        let quarters = u64::from(units) << 2;
-        low + odd <= quarters && quarters + odd <= high
-    };
-    // Below 10^9: less than ten times the significand. (A 32-bit division by a constant
-    // is a multiplication on every target; a 64-bit one is a library call.)
-    let s = (mid >> 2) as u32;
-    let tens = s / 10 * 10;
-    let chosen = match (inside(tens), inside(tens + 10)) {
-        (true, false) => tens,
-        (false, true) => tens + 10,
-        _ => match (inside(s), inside(s + 1)) {
-            (true, false) => s,
-            (false, true) => s + 1,
-            // Both: the nearer, `mid` against their midpoint; a tie goes up, as `{}` does.
-            _ if mid < 4 * u64::from(s) + 2 => s,
-            _ => s + 1,
-        },
-    };
-    let (mut digits, mut exponent) = (chosen, k);
-    while digits % 10 == 0 && digits > 0 {
-        digits /= 10;
-        exponent += 1;
-    }
-    (digits, exponent, decimal_len(digits))
+/// How close (in 32.32 units: `2^-16`) an approximate position may come to an integer or a tie
+/// before it is checked exactly. `y` is within `5·2^-64` (relative: [`Approx::pow10`] and one
+/// product) of the truth plus one unit of truncation, i.e. below 2^62 by less than 3 units, and
+/// the interval ends within 2^6 units (after `×10`).
+const TIE_MARGIN: u64 = 1 << 16;
+
+/// The integers `low..=high` (in units of `10^-scale`) that read back as the float `bits`, and
+/// `y`, the float in those units, in 32.32 fixed point.
+struct Window {
+    bits: u32,
+    x: Binary,
+    scale: i32,
+    y: u64,
+    /// Whether `y` and the interval ends are exact (else within 2^6 units).
+    exact: bool,
+    low: u32,
+    high: u32,
 }
 
-/// How far (in units of its last bit) a power of ten from [`Approx::pow10`] is raised before
-/// the float writer scales by it. Its error is at most three units either way; a scaled
-/// value below the truth could put an integer lying exactly on the interval's end on the
-/// wrong side of it, while one above it by a few units stays within the rounding to odd.
-/// Checked against every `f32` (an ignored test).
-const POWER_MARGIN: u64 = 4;
+impl Window {
+    /// The window of the positive float `bits`, with `y` in `[10^8, 10^9)`.
+    fn new(bits: u32) -> Self {
+        let x = Binary::decode(bits);
+        // floor(log2 x) + 1, and the floor of that times log10(2) (exact for |v| < 1650 with
+        // this constant): the decimal exponent of x is `estimate` or one less.
+        let bit_top = x.e + (32 - x.m.leading_zeros()) as i32;
+        let estimate = (bit_top * 78_913) >> 18;
+        let mut scale = 8 - estimate;
+        // `above`: the half-step to the next float up, in the same units as `y`.
+        let (mut y, mut above, exact) = match exact_fixed(x, scale) {
+            Some((y, above)) => (y, above, true),
+            None => {
+                let power = Approx::pow10(scale);
+                let y = Approx::new(u64::from(x.m), x.e).mul(power);
+                let above = Approx::new(1, x.e - 1).mul(power);
+                (y.fixed32(), above.fixed32(), false)
+            }
+        };
+        if y < 100_000_000 << 32 {
+            // The estimate was one too high; y < 10^8·2^32 < 2^59, so nothing overflows.
+            y *= 10;
+            above *= 10;
+            scale += 1;
+        }
+        // `above` is even when exact (a power of two of at least 2 times 5^scale).
+        let below = if x.narrow_below() { above / 2 } else { above };
+        let mut window = Window {
+            bits,
+            x,
+            scale,
+            y,
+            exact,
+            low: 0,
+            high: 0,
+        };
+        if exact {
+            // Exact ends belong to the interval when m is even (the reader rounds ties to
+            // even): an odd m moves each end one 2^-32 unit inwards, and then both are
+            // inclusive, so the integers inside follow by rounding up and down.
+            let odd = u64::from(x.m % 2);
+            window.low = ((y - below + odd + 0xffff_ffff) >> 32) as u32;
+            window.high = ((y + above - odd) >> 32) as u32;
+        } else {
+            window.low = window.end(y - below, true);
+            window.high = window.end(y + above, false);
+        }
+        window
+    }
+
+    /// The first (`lower`) or last integer inside the interval that ends near `end`, for an
+    /// approximate window.
+    fn end(&self, end: u64, lower: bool) -> u32 {
+        let floor = (end >> 32) as u32;
+        let fraction = end as u32;
+        let margin = TIE_MARGIN as u32;
+        if fraction > margin && fraction.wrapping_neg() > margin {
+            // Clearly between two integers.
+            return if lower {
+                floor.saturating_add(1)
+            } else {
+                floor
+            };
+        }
+        let nearest = if fraction <= margin {
+            floor
+        } else {
+            floor.saturating_add(1)
+        };
+        match (lower, self.reads_back(nearest)) {
+            (_, true) => nearest,
+            (true, false) => nearest.saturating_add(1),
+            (false, false) => nearest.saturating_sub(1),
+        }
+    }
+
+    /// Whether `candidate·10^-scale` parses back to the float.
+    fn reads_back(&self, candidate: u32) -> bool {
+        round_check(u64::from(candidate), -self.scale, false, self.bits) == Ordering::Equal
+    }
+
+    /// The shortest integer in the window, nearest to `y`, ties to the larger one; returned as
+    /// digits, decimal exponent and number of digits.
+    fn pick(&self) -> (u32, i32, usize) {
+        // The largest power of ten with a multiple inside the window: the window holds a
+        // multiple of 10^k exactly when high/10^k > (low-1)/10^k. Dividing by the constant
+        // 10 compiles to a multiplication; a division by a variable power would not, so y's
+        // quotient is divided along.
+        let (mut below, mut high) = (self.low.saturating_sub(1), self.high);
+        let mut quotient = (self.y >> 32) as u32;
+        let mut step = 1u32;
+        let mut zeros = 0;
+        while high / 10 > below / 10 {
+            high /= 10;
+            below /= 10;
+            quotient /= 10;
+            step = step.saturating_mul(10);
+            zeros += 1;
+        }
+        // The nearest multiple of `step` is one of the two around y.
+        let down = quotient * step;
+        let up = down.saturating_add(step);
+        let inside = |c: u32| (self.low..=self.high).contains(&c);
+        let chosen = match (inside(down), inside(up)) {
+            (true, true) if self.up_is_nearer(down, step) => quotient + 1,
+            (true, _) => quotient,
+            _ => quotient + 1,
+        };
+        // `y` has nine digits, and so do the window's integers below 10^9; one of them with
+        // `zeros` trailing zeros has `9 - zeros` more. 10^9 is a multiple of every step, so
+        // with it inside the loop ends at `zeros = 9`, choosing 1.
+        (
+            chosen,
+            zeros - self.scale,
+            9usize.saturating_sub(zeros as usize).max(1),
+        )
+    }
+
+    /// Whether `y >= down + step/2`.
+    fn up_is_nearer(&self, down: u32, step: u32) -> bool {
+        // Both below 2^32, so twice their midpoint is below 2^33.
+        let twice_mid = 2 * u64::from(down) + u64::from(step);
+        let mid = twice_mid << 31;
+        if self.exact || self.y.abs_diff(mid) > TIE_MARGIN {
+            return self.y >= mid;
+        }
+        // mid·10^-scale = twice_mid·5·10^(-scale-1).
+        compare(twice_mid * 5, -self.scale - 1, self.x.m, self.x.e) != Ordering::Greater
+    }
+}
+
+/// `y = x·10^s` and the half-step above it, times 2^32, if those are integers below 2^63: for
+/// `0 <= s <= 14` and a quarter-step `5^s·2^(e+s-2)` of at least `2^-32`, i.e. roughly
+/// `10^-6 <= x < 10^9`.
+fn exact_fixed(x: Binary, s: i32) -> Option<(u64, u64)> {
+    let s = u32::try_from(s).ok().filter(|&s| s <= 14)?;
+    let p5 = pow5(s);
+    let quarter = u32::try_from(x.e + s as i32 + 30).ok()?;
+    // m·5^s < 2^24·5^14 < 2^57; `shl` refuses to lose bits.
+    let y = shl(u64::from(x.m) * p5, quarter + 2)?;
+    let above = shl(p5, quarter + 1)?;
+    Some((y, above))
+}
+
+/// `v << n` if no bit is lost and the result stays below 2^63.
+fn shl(v: u64, n: u32) -> Option<u64> {
+    (n < v.leading_zeros()).then(|| v << n)
+}
 
 /// Writes `[-]digits·10^exponent` the way `{}` does, never with an exponent, for `digits`
 /// of `len` (at most nine) digits.
