@@ -1018,6 +1018,56 @@ async fn polls_the_robot_never_answers_back_off_and_never_starve_the_status() {
     );
 }
 
+/// A `robot_server` that ignores one Type of the command connection (here the light's,
+/// 1101, which older ones do not know) keeps answering the motion commands around it: the
+/// held button's repeats go on at their rate instead of pausing until the light's request
+/// is given up on, and the answering connection is kept.
+#[tokio::test(flavor = "current_thread")]
+async fn a_command_the_robot_never_answers_does_not_hold_up_motion() {
+    let sim = simulator(1.0);
+    sim.set_faults(Faults {
+        type_delays: vec![(1101, StdDuration::from_secs(3600))],
+        ..Default::default()
+    });
+    let (start, end) = with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        press(shared, Button::Forward, true).await;
+        sleep(300).await;
+        let start = sim.elapsed().as_secs_f64();
+        click(shared, Button::Light).await;
+        sleep(2500).await;
+        let end = sim.elapsed().as_secs_f64();
+        press(shared, Button::Forward, false).await;
+        sleep(200).await;
+        (start, end)
+    })
+    .await;
+    let log = sim.requests();
+    assert!(
+        log.iter().any(|e| e.message_type == Some(1101)),
+        "the light's request went out"
+    );
+    let forward: Vec<f64> = motion(&log)
+        .into_iter()
+        .filter(|&(t, c)| c == 1 && (start..end).contains(&t))
+        .map(|(t, _)| t)
+        .collect();
+    let longest_gap = forward.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+    // At 4 Hz, 2.5 s hold 10 repeats 0.25 s apart; held back until the light's request is
+    // given up on (1.5 s), they would pause for about a second.
+    assert!(
+        forward.len() >= 8 && longest_gap < 0.6,
+        "{} forward commands, longest gap {longest_gap:.2} s",
+        forward.len()
+    );
+    let connections: std::collections::BTreeSet<_> = log
+        .iter()
+        .filter(|e| e.message_type == Some(2))
+        .map(|e| e.conn)
+        .collect();
+    assert_eq!(connections.len(), 1, "the command connection is kept");
+}
+
 /// A stricter `robot_server` hangs up on a Type it does not know. The poll lost with the
 /// connection goes first on the next one only once; lost again, it backs off like an
 /// unanswered one, instead of being the only thing ever asked.

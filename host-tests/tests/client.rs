@@ -396,6 +396,47 @@ async fn a_robot_that_stops_answering_is_overdue_then_silent() {
 }
 
 #[tokio::test]
+async fn a_request_the_robot_passes_over_is_not_overdue_once_a_later_one_is_answered() {
+    // A robot that ignores the light's Type and answers everything else.
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        while let Some((id, request)) = read_request(&mut s, &mut d) {
+            if !matches!(request, Request::Light(_)) {
+                s.write_all(&answer(id, &perception())).unwrap();
+            }
+        }
+    });
+    let mut link = connected(addr).await;
+    let light = Request::Light(Light {
+        red: 255,
+        green: 0,
+        blue: 0,
+        effect: LightEffect::Steady,
+        brightness: 50,
+    });
+    link.send(&light).await.unwrap();
+    let light_sent = Instant::now();
+    assert_eq!(
+        link.health(light_sent + ANSWER_OVERDUE),
+        Health::Overdue,
+        "nothing answered since the light's request: overdue"
+    );
+    link.send(&Request::Perception).await.unwrap();
+    let later = link.receive().await.unwrap();
+    assert!(later.result.is_ok());
+    assert_eq!(
+        link.health(light_sent + ANSWER_OVERDUE),
+        Health::Answering,
+        "a request written after it was answered: the robot answers"
+    );
+    // A request written after that one and not answered is overdue again.
+    link.send(&light).await.unwrap();
+    let again = Instant::now();
+    assert_eq!(link.health(again), Health::Answering);
+    assert_eq!(link.health(again + ANSWER_OVERDUE), Health::Overdue);
+}
+
+#[tokio::test]
 async fn an_answer_clears_the_overdue_state() {
     let addr = peer(|mut s| {
         let mut d = FrameDecoder::new();

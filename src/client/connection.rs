@@ -55,7 +55,9 @@ pub const MAX_OUTSTANDING: usize = 16;
 pub const WRITE_TIMEOUT: Duration = Duration::from_millis(200);
 
 /// An answer not here after this long is overdue: the robot is slow or not answering, and
-/// motion is no longer written to the connection (stops still are).
+/// motion is no longer written to the connection (stops still are). Only a request written
+/// after the last one answered can be overdue: one the robot passed over, answering later
+/// ones (a Type it ignores), says nothing about whether it answers now.
 pub const ANSWER_OVERDUE: Duration = Duration::from_millis(500);
 
 /// How long the poll connection must have been open, with the robot answering on it, to be
@@ -102,7 +104,8 @@ pub struct Answer {
 pub enum Health {
     /// Nothing is overdue.
     Answering,
-    /// An answer has waited longer than [`ANSWER_OVERDUE`]: write no motion.
+    /// An answer has waited longer than [`ANSWER_OVERDUE`], and nothing written after its
+    /// request was answered: write no motion.
     Overdue,
     /// Nothing received for [`SILENT_AFTER`] with requests outstanding, or
     /// [`SILENT_TIMEOUTS`] requests in a row given up on: close and reconnect.
@@ -133,6 +136,8 @@ pub struct Connection<T: Transport> {
     waiting_since: Option<Instant>,
     /// Requests given up on since the last answer.
     timeouts_in_a_row: u8,
+    /// When the latest-written request answered on this connection was written.
+    answered_up_to: Option<Instant>,
     /// Whether the robot has answered on this connection since it opened: only then does
     /// the backoff start again from its minimum, so that a robot that accepts connections
     /// and drops them at once is not hammered.
@@ -156,6 +161,7 @@ impl<T: Transport> Connection<T> {
             outstanding: Outstanding::new(),
             waiting_since: None,
             timeouts_in_a_row: 0,
+            answered_up_to: None,
             answered: false,
             opened_at: Instant::from_ticks(0),
         }
@@ -215,6 +221,7 @@ impl<T: Transport> Connection<T> {
         self.outstanding.clear();
         self.timeouts_in_a_row = 0;
         self.waiting_since = None;
+        self.answered_up_to = None;
     }
 
     /// Gives up on a connection whose robot went silent; the next attempt waits for the
@@ -262,9 +269,8 @@ impl<T: Transport> Connection<T> {
         {
             Health::Silent
         } else if self
-            .outstanding
-            .oldest()
-            .is_some_and(|(_, oldest)| waited(oldest.at) >= ANSWER_OVERDUE)
+            .oldest_unanswered()
+            .is_some_and(|oldest| waited(oldest.at) >= ANSWER_OVERDUE)
         {
             Health::Overdue
         } else {
@@ -275,11 +281,19 @@ impl<T: Transport> Connection<T> {
     /// When [`Connection::health`] may next change without anything received.
     pub fn health_deadline(&self) -> Option<Instant> {
         let overdue = self
-            .outstanding
-            .oldest()
-            .map(|(_, oldest)| oldest.at.saturating_add(ANSWER_OVERDUE));
+            .oldest_unanswered()
+            .map(|oldest| oldest.at.saturating_add(ANSWER_OVERDUE));
         let silent = self.waiting_since.map(|w| w.saturating_add(SILENT_AFTER));
         overdue.into_iter().chain(silent).min()
+    }
+
+    /// The oldest request written after the latest one answered: the one whose answer says
+    /// whether the robot still answers (see [`ANSWER_OVERDUE`]).
+    fn oldest_unanswered(&self) -> Option<Sent> {
+        self.outstanding
+            .iter()
+            .map(|&(_, sent)| sent)
+            .find(|sent| self.answered_up_to.is_none_or(|up_to| sent.at > up_to))
     }
 
     /// Gives up on the oldest request if it has waited `limit` or longer at `now`, and
@@ -466,6 +480,7 @@ impl<T: Transport> Connection<T> {
             self.timeouts_in_a_row = 0;
             self.waiting_since = (!self.outstanding.is_empty()).then(Instant::now);
             self.answered = true;
+            self.answered_up_to = self.answered_up_to.max(Some(request.at));
             let result = match decoded {
                 Ok(decoded) => {
                     self.clock.learn(decoded.time, Instant::now());

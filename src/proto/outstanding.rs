@@ -63,6 +63,11 @@ impl<T, const N: usize> Outstanding<T, N> {
         self.requests.first()
     }
 
+    /// The requests waiting for their answers, oldest first.
+    pub fn iter(&self) -> impl Iterator<Item = &(u16, T)> {
+        self.requests.iter()
+    }
+
     /// Gives up on the oldest request and returns it.
     pub fn pop_oldest(&mut self) -> Option<(u16, T)> {
         // `remove` shifts the rest down (at most `N`, a handful); it cannot fail here.
