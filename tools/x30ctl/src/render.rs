@@ -173,6 +173,16 @@ fn map_pixel(s: &RobotStatus) -> Option<(i32, i32)> {
     s.map_image().to_pixel(s.pos_x, s.pos_y)
 }
 
+/// A reading the robot reports, with its unit: C's `nan` or `inf`, which a robot prints for
+/// a reading it does not have (an unknown pose), reads "unknown".
+pub fn reading(value: f32, unit: &str) -> String {
+    match (value.is_finite(), unit) {
+        (false, _) => "unknown".to_owned(),
+        (true, "") => value.to_string(),
+        (true, unit) => format!("{value} {unit}"),
+    }
+}
+
 /// The line printed for an unavailable status.
 pub const STATUS_UNAVAILABLE: &str = "status unavailable (all items 0): the robot could not read its status, or its navigation program is not running";
 
@@ -239,19 +249,30 @@ fn status_text(s: &RobotStatus) -> String {
         .row("motion state", code_text(s.motion_state))
         .row(
             "position",
-            format_args!("x {} m, y {} m, z {} m{pixel}", s.pos_x, s.pos_y, s.pos_z),
+            format_args!(
+                "x {}, y {}, z {}{pixel}",
+                reading(s.pos_x, "m"),
+                reading(s.pos_y, "m"),
+                reading(s.pos_z, "m")
+            ),
         )
         .row(
             "attitude",
             format_args!(
-                "roll {} rad, pitch {} rad, yaw {} rad",
-                s.roll, s.pitch, s.yaw
+                "roll {}, pitch {}, yaw {}",
+                reading(s.roll, "rad"),
+                reading(s.pitch, "rad"),
+                reading(s.yaw, "rad")
             ),
         )
-        .row("speed", format_args!("{} m/s", s.speed))
+        .row("speed", reading(s.speed, "m/s"))
         .row(
             "odometry",
-            format_args!("{} km since power-on, {} km total", s.cur_odom, s.sum_odom),
+            format_args!(
+                "{} since power-on, {} total",
+                reading(s.cur_odom, "km"),
+                reading(s.sum_odom, "km")
+            ),
         )
         .row("battery", format_args!("{} %", s.electricity))
         .row("gait", code_text(s.gait_state))
@@ -588,6 +609,15 @@ pub fn validation_error_text(e: &ValidationError) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn readings_the_robot_does_not_have_read_unknown() {
+        assert_eq!(reading(-0.000_233_936_21, "m"), "-0.00023393621 m");
+        assert_eq!(reading(1.5, ""), "1.5");
+        for value in [f32::NAN, -f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            assert_eq!(reading(value, "rad"), "unknown", "{value}");
+        }
+    }
 
     #[test]
     fn codes_serialise_with_number_name_and_meaning() {

@@ -17,7 +17,7 @@ use crate::Ctx;
 use crate::cli::WatchArgs;
 use crate::conn::{Answer, Connection};
 use crate::error::Error;
-use crate::render::{self, AnswerJson, code_text, emit, note};
+use crate::render::{self, AnswerJson, code_text, emit, note, reading};
 
 /// ANSI: cursor home, clear screen.
 const CLEAR: &str = "\x1b[H\x1b[2J";
@@ -153,11 +153,11 @@ fn status_fields(s: &RobotStatus) -> String {
     format!(
         " state={:?} pos=({}, {}, {}) yaw={} speed={} electricity={}% gait={:?} location={:?} charge={:?} dock={:?}",
         s.motion_state.description(),
-        s.pos_x,
-        s.pos_y,
-        s.pos_z,
-        s.yaw,
-        s.speed,
+        reading(s.pos_x, ""),
+        reading(s.pos_y, ""),
+        reading(s.pos_z, ""),
+        reading(s.yaw, ""),
+        reading(s.speed, ""),
         s.electricity,
         s.gait_state.description(),
         s.location.description(),

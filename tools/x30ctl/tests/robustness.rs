@@ -173,7 +173,8 @@ fn an_unknown_pose_is_shown_and_the_rest_of_the_status_read() {
     });
     x30ctl(&sim, &["status"])
         .expect_code(0)
-        .stdout_has("x NaN m, y NaN m, z NaN m")
+        .stdout_has("x unknown, y unknown, z unknown")
+        .stdout_has("roll unknown, pitch unknown, yaw unknown")
         .stdout_has("motion state   force-control stand (3)");
     let run = x30ctl(&sim, &["status", "--json"]);
     let status = &run.expect_code(0).json_lines()[0];
