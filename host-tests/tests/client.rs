@@ -437,40 +437,6 @@ async fn a_request_the_robot_passes_over_is_not_overdue_once_a_later_one_is_answ
 }
 
 #[tokio::test]
-async fn one_request_given_up_on_with_nothing_else_outstanding_is_not_silence() {
-    // A robot that ignores the light's Type and answers everything else.
-    let addr = peer(|mut s| {
-        let mut d = FrameDecoder::new();
-        while let Some((id, request)) = read_request(&mut s, &mut d) {
-            if !matches!(request, Request::Light(_)) {
-                s.write_all(&answer(id, &perception())).unwrap();
-            }
-        }
-    });
-    let mut link = connected(addr).await;
-    link.send(&Request::Light(Light {
-        red: 0,
-        green: 255,
-        blue: 0,
-        effect: LightEffect::Breathing,
-        brightness: 100,
-    }))
-    .await
-    .unwrap();
-    let sent = Instant::now();
-    let limit = Duration::from_millis(1500);
-    assert!(link.expire(sent + limit, limit).is_some());
-    assert_eq!(
-        link.health(sent + SILENT_AFTER),
-        Health::Answering,
-        "nothing is outstanding, and one request given up on is not two in a row"
-    );
-    // The robot answers the next request as usual.
-    link.send(&Request::Perception).await.unwrap();
-    assert!(link.receive().await.unwrap().result.is_ok());
-}
-
-#[tokio::test]
 async fn an_answer_clears_the_overdue_state() {
     let addr = peer(|mut s| {
         let mut d = FrameDecoder::new();

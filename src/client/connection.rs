@@ -310,13 +310,7 @@ impl<T: Transport> Connection<T> {
     /// towards [`SILENT_TIMEOUTS`].
     fn give_up_on(&mut self, id: u16) -> Option<Sent> {
         self.timeouts_in_a_row = self.timeouts_in_a_row.saturating_add(1);
-        let sent = self.outstanding.remove(id);
-        // With nothing left to wait for, no silence is timed: a robot that ignores one
-        // request and is sent nothing else is not silent for it (two in a row still are).
-        if self.outstanding.is_empty() {
-            self.waiting_since = None;
-        }
-        sent
+        self.outstanding.remove(id)
     }
 
     /// When the oldest outstanding request will have waited `limit`.
