@@ -396,6 +396,32 @@ async fn a_robot_that_stops_answering_is_overdue_then_silent() {
 }
 
 #[tokio::test]
+async fn a_request_given_up_on_still_counts_towards_silence() {
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        while read_request(&mut s, &mut d).is_some() {}
+    });
+    let mut link = connected(addr).await;
+    let before = Instant::now();
+    link.send(&Request::Status).await.unwrap();
+    let sent = Instant::now();
+    let given_up = sent + Duration::from_millis(1500);
+    assert!(link.expire(given_up, Duration::from_millis(1500)).is_some());
+    assert_eq!(link.outstanding(), 0);
+    assert_eq!(
+        link.health(given_up),
+        Health::Answering,
+        "nothing outstanding to be overdue, one give-up is not two"
+    );
+    let deadline = link.health_deadline();
+    assert!(
+        deadline.is_some_and(|d| (before + SILENT_AFTER..=sent + SILENT_AFTER).contains(&d)),
+        "the silence clock keeps running from the send after the give-up: {deadline:?}"
+    );
+    assert_eq!(link.health(sent + SILENT_AFTER), Health::Silent);
+}
+
+#[tokio::test]
 async fn a_request_the_robot_passes_over_is_not_overdue_once_a_later_one_is_answered() {
     // A robot that ignores the light's Type and answers everything else.
     let addr = peer(|mut s| {

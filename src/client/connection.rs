@@ -66,8 +66,9 @@ pub const ANSWER_OVERDUE: Duration = Duration::from_millis(500);
 /// as the link allows.
 pub const STABLE_AFTER: Duration = Duration::from_secs(1);
 
-/// With requests outstanding and nothing received for this long, the robot is silent and the
-/// connection is given up on.
+/// Nothing received for this long since a request was written, unless every request since has
+/// been answered, and the robot is silent: the connection is given up on. A request given up on
+/// still counts: a robot that ignores it has said nothing since.
 pub const SILENT_AFTER: Duration = Duration::from_secs(2);
 
 /// This many requests given up on in a row also make the robot silent.
@@ -107,8 +108,9 @@ pub enum Health {
     /// An answer has waited longer than [`ANSWER_OVERDUE`], and nothing written after its
     /// request was answered: write no motion.
     Overdue,
-    /// Nothing received for [`SILENT_AFTER`] with requests outstanding, or
-    /// [`SILENT_TIMEOUTS`] requests in a row given up on: close and reconnect.
+    /// Nothing received for [`SILENT_AFTER`] since a request was written and not answered
+    /// (given up on or still outstanding), or [`SILENT_TIMEOUTS`] requests in a row given up
+    /// on: close and reconnect.
     Silent,
 }
 
@@ -132,7 +134,9 @@ pub struct Connection<T: Transport> {
     anomalies: Anomalies,
     /// Requests written and not answered yet.
     outstanding: Outstanding<Sent, MAX_OUTSTANDING>,
-    /// Since when requests have waited with nothing received; `None` while nothing waits.
+    /// Since when requests have waited with nothing received; `None` once every request
+    /// written has been answered. Giving up on a request leaves it running: see
+    /// [`SILENT_AFTER`].
     waiting_since: Option<Instant>,
     /// Requests given up on since the last answer.
     timeouts_in_a_row: u8,
@@ -269,7 +273,7 @@ impl<T: Transport> Connection<T> {
         {
             Health::Silent
         } else if self
-            .oldest_unanswered()
+            .oldest_not_passed_over()
             .is_some_and(|oldest| waited(oldest.at) >= ANSWER_OVERDUE)
         {
             Health::Overdue
@@ -281,7 +285,7 @@ impl<T: Transport> Connection<T> {
     /// When [`Connection::health`] may next change without anything received.
     pub fn health_deadline(&self) -> Option<Instant> {
         let overdue = self
-            .oldest_unanswered()
+            .oldest_not_passed_over()
             .map(|oldest| oldest.at.saturating_add(ANSWER_OVERDUE));
         let silent = self.waiting_since.map(|w| w.saturating_add(SILENT_AFTER));
         overdue.into_iter().chain(silent).min()
@@ -289,7 +293,7 @@ impl<T: Transport> Connection<T> {
 
     /// The oldest request written after the latest one answered: the one whose answer says
     /// whether the robot still answers (see [`ANSWER_OVERDUE`]).
-    fn oldest_unanswered(&self) -> Option<Sent> {
+    fn oldest_not_passed_over(&self) -> Option<Sent> {
         self.outstanding
             .iter()
             .map(|&(_, sent)| sent)
