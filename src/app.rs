@@ -364,7 +364,12 @@ impl App<'_> {
                 retry_at = Instant::now();
             }
             if !self
-                .ensure_connected(conn, ConnectionRole::Commands, &mut retry_at)
+                .ensure_connected(
+                    conn,
+                    ConnectionRole::Commands,
+                    &mut retry_at,
+                    &self.wake_commands,
+                )
                 .await
             {
                 continue;
@@ -444,19 +449,23 @@ impl App<'_> {
     }
 
     /// Opens `conn` if it is closed and its retry is due; whether it is open. While it
-    /// stays closed this waits (for the retry, at most [`IDLE`]) before returning.
+    /// stays closed this waits (for the retry, at most [`IDLE`], or for `wake`, which a
+    /// button signals) before returning.
     async fn ensure_connected<T: Transport>(
         &self,
         conn: &mut Connection<T>,
         role: ConnectionRole,
         retry_at: &mut Instant,
+        wake: &Signal<NoopRawMutex, ()>,
     ) -> bool {
         if conn.is_connected() {
             return true;
         }
-        // A stop pressed during a long backoff shortens the wait.
+        // A stop pressed during a long backoff ends the wait once the latest attempt is
+        // STOP_RETRY old: at once after a connection given up on or lost, every STOP_RETRY
+        // against a robot that refuses or drops every connection.
         if self.panel(|p| p.control().stop_pending()) {
-            *retry_at = (*retry_at).min(Instant::now() + STOP_RETRY);
+            *retry_at = (*retry_at).min(conn.last_attempt() + STOP_RETRY);
         }
         if Instant::now() >= *retry_at {
             self.connection(role, ConnectionState::Connecting);
@@ -469,7 +478,12 @@ impl App<'_> {
                 Err(retry_in) => *retry_at = Instant::now() + self.retry_delay(retry_in),
             }
         }
-        Timer::at((*retry_at).min(Instant::now() + IDLE)).await;
+        // A button may make a stop pending meanwhile: look again then.
+        select(
+            Timer::at((*retry_at).min(Instant::now() + IDLE)),
+            wake.wait(),
+        )
+        .await;
         false
     }
 
@@ -485,7 +499,7 @@ impl App<'_> {
                 retry_at = Instant::now();
             }
             if !self
-                .ensure_connected(conn, ConnectionRole::Polls, &mut retry_at)
+                .ensure_connected(conn, ConnectionRole::Polls, &mut retry_at, &self.wake_polls)
                 .await
             {
                 continue;

@@ -17,7 +17,7 @@ use peer::{answer, read_request};
 use std::io::Write as _;
 use std::sync::{Arc, Mutex};
 use std::time::Duration as StdDuration;
-use x30_panel::app::{self, Connections, Path, Shared};
+use x30_panel::app::{self, Connections, Path, STOP_RETRY, Shared};
 use x30_panel::client::{Backoff, Connection};
 use x30_panel::config::Config;
 use x30_panel::panel::NetworkState;
@@ -49,12 +49,12 @@ fn backoff() -> Backoff {
     Backoff::new(Duration::from_millis(50), Duration::from_millis(400))
 }
 
-/// The three connections to `addr`.
-fn links(addr: std::net::SocketAddr) -> Connections<TokioTransport> {
+/// The three connections to `addr`, each reconnecting with `backoff`.
+fn links(addr: std::net::SocketAddr, backoff: Backoff) -> Connections<TokioTransport> {
     Connections {
-        commands: Connection::new(TokioTransport::new(addr), backoff()),
-        polls: Connection::new(TokioTransport::new(addr), backoff()),
-        navigation: Connection::new(TokioTransport::new(addr), backoff()),
+        commands: Connection::new(TokioTransport::new(addr), backoff),
+        polls: Connection::new(TokioTransport::new(addr), backoff),
+        navigation: Connection::new(TokioTransport::new(addr), backoff),
     }
 }
 
@@ -88,11 +88,19 @@ async fn with_app_config<R>(
     config: &Config,
     script: impl AsyncFnOnce(&Shared) -> R,
 ) -> R {
+    with_app_links(&mut links(sim.addr(), backoff()), config, script).await
+}
+
+/// [`with_app_config`] on connections of the caller's.
+async fn with_app_links<R>(
+    links: &mut Connections<TokioTransport>,
+    config: &Config,
+    script: impl AsyncFnOnce(&Shared) -> R,
+) -> R {
     let shared = Shared::new();
     shared.set_network(NetworkState::Up);
-    let mut links = links(sim.addr());
     tokio::select! {
-        _ = app::run(config, &mut links, &shared) => unreachable!(),
+        _ = app::run(config, links, &shared) => unreachable!(),
         result = script(&shared) => result,
     }
 }
@@ -245,7 +253,7 @@ async fn command_path_progress_moves_while_connected_and_while_the_robot_is_away
         .expect("a free port");
     let config = Config::default();
     let shared = Shared::new();
-    let mut links = links(closed);
+    let mut links = links(closed, backoff());
     let away = tokio::select! {
         _ = app::run(&config, &mut links, &shared) => unreachable!(),
         beats = beats_during(&shared, 1500) => beats,
@@ -397,7 +405,7 @@ async fn a_pending_estop_is_not_sent_faster_than_it_repeats_to_a_robot_hanging_u
     let (addr, log) = robot_hanging_up_after_each_answer(start);
     let shared = Shared::new();
     shared.set_network(NetworkState::Up);
-    let mut links = links(addr);
+    let mut links = links(addr, backoff());
     let config = config();
     let mut pressed = 0.0;
     tokio::select! {
@@ -1124,6 +1132,58 @@ async fn stops_reach_a_half_open_robot_at_once_and_the_silence_is_detected() {
         assert!(
             wait_for_log(&sim, 6000, |l| l.iter().any(|e| e.conn > old)).await,
             "the panel reconnects to a silent robot"
+        );
+    })
+    .await;
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_stop_pressed_while_waiting_to_reconnect_to_a_silent_robot_goes_out_at_once() {
+    let sim = simulator(1.0);
+    // A backoff far longer than a stop may wait: the stop must not wait it out.
+    let backoff = Backoff::new(Duration::from_secs(3), Duration::from_secs(5));
+    with_app_links(&mut links(sim.addr(), backoff), &config(), async |shared| {
+        wait_connected(&sim).await;
+        sleep(300).await;
+        let open = sim.connections();
+        sim.set_faults(Faults {
+            mute: true,
+            ..Default::default()
+        });
+        // Two commands the robot never answers: given up on after 1.5 s, the connection
+        // is silent and closed, well before the polls' (2 s of silence).
+        click(shared, Button::Forward).await;
+        let mut closed = false;
+        for _ in 0..400 {
+            sleep(10).await;
+            if sim.connections() < open {
+                closed = true;
+                break;
+            }
+        }
+        assert!(closed, "the silent command connection is closed");
+        let before = sim.requests().iter().map(|e| e.conn).max();
+        sleep(100).await;
+        let pressed = sim.elapsed().as_secs_f64();
+        press(shared, Button::Estop, true).await;
+        let estop = wait_for_command(&sim, 2000, pressed, 13)
+            .await
+            .expect("e-stop sent");
+        press(shared, Button::Estop, false).await;
+        let first = sim
+            .requests()
+            .into_iter()
+            .find(|e| e.t >= pressed && e.command == Some(13))
+            .expect("the e-stop in the log");
+        assert!(
+            Some(first.conn) > before,
+            "the e-stop was pressed while the command connection was closed"
+        );
+        // Not even the pace of retries against a refusing robot: nothing refused here.
+        assert!(
+            estop - pressed < STOP_RETRY.as_micros() as f64 / 1e6,
+            "the e-stop reached the robot {:.3} s after the button, during a 3 s backoff",
+            estop - pressed
         );
     })
     .await;

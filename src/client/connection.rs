@@ -148,6 +148,8 @@ pub struct Connection<T: Transport> {
     answered: bool,
     /// When this connection opened.
     opened_at: Instant,
+    /// When the latest attempt to open it began.
+    attempted_at: Instant,
 }
 
 impl<T: Transport> Connection<T> {
@@ -168,6 +170,7 @@ impl<T: Transport> Connection<T> {
             answered_up_to: None,
             answered: false,
             opened_at: Instant::from_ticks(0),
+            attempted_at: Instant::from_ticks(0),
         }
     }
 
@@ -195,6 +198,7 @@ impl<T: Transport> Connection<T> {
     /// before the next attempt, growing exponentially up to the backoff's maximum.
     pub async fn connect(&mut self) -> Result<(), Duration> {
         self.disconnect().await;
+        self.attempted_at = Instant::now();
         match self.transport.connect().await {
             Ok(()) => {
                 self.connected = true;
@@ -205,6 +209,11 @@ impl<T: Transport> Connection<T> {
             }
             Err(kind) => Err(self.retry_delay(kind)),
         }
+    }
+
+    /// When the latest attempt to open the connection began (boot time before the first).
+    pub fn last_attempt(&self) -> Instant {
+        self.attempted_at
     }
 
     /// Closes the connection and opens the next one to `robot`, with a fresh backoff:
