@@ -463,6 +463,46 @@ async fn a_request_the_robot_passes_over_is_not_overdue_once_a_later_one_is_answ
 }
 
 #[tokio::test]
+async fn giving_up_on_a_request_the_robot_passed_over_says_nothing_of_silence() {
+    // A robot that ignores the light's Type and answers everything else.
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        while let Some((id, request)) = read_request(&mut s, &mut d) {
+            if !matches!(request, Request::Light(_)) {
+                s.write_all(&answer(id, &perception())).unwrap();
+            }
+        }
+    });
+    let mut link = connected(addr).await;
+    let light = Request::Light(Light {
+        red: 0,
+        green: 255,
+        blue: 0,
+        effect: LightEffect::Steady,
+        brightness: 50,
+    });
+    // Two ignored requests, then one answered: neither give-up counts, though two in a
+    // row that did would make the robot silent.
+    link.send(&light).await.unwrap();
+    link.send(&light).await.unwrap();
+    link.send(&Request::Perception).await.unwrap();
+    assert!(link.receive().await.unwrap().result.is_ok());
+    let late = Instant::now() + Duration::from_millis(1500);
+    while link.expire(late, Duration::from_millis(1500)).is_some() {}
+    assert_eq!(link.outstanding(), 0);
+    assert_eq!(
+        link.health_deadline(),
+        None,
+        "nothing outstanding, nothing to time"
+    );
+    assert_eq!(
+        link.health(late + SILENT_AFTER),
+        Health::Answering,
+        "the robot answered what came after the requests it passed over"
+    );
+}
+
+#[tokio::test]
 async fn an_answer_clears_the_overdue_state() {
     let addr = peer(|mut s| {
         let mut d = FrameDecoder::new();

@@ -68,7 +68,8 @@ pub const STABLE_AFTER: Duration = Duration::from_secs(1);
 
 /// Nothing received for this long since a request was written, unless every request since has
 /// been answered, and the robot is silent: the connection is given up on. A request given up on
-/// still counts: a robot that ignores it has said nothing since.
+/// still counts (a robot that ignored it has said nothing since), unless the robot answered
+/// one written after it.
 pub const SILENT_AFTER: Duration = Duration::from_secs(2);
 
 /// This many requests given up on in a row also make the robot silent.
@@ -109,8 +110,8 @@ pub enum Health {
     /// request was answered: write no motion.
     Overdue,
     /// Nothing received for [`SILENT_AFTER`] since a request was written and not answered
-    /// (given up on or still outstanding), or [`SILENT_TIMEOUTS`] requests in a row given up
-    /// on: close and reconnect.
+    /// (still outstanding, or given up on with nothing written after it answered), or
+    /// [`SILENT_TIMEOUTS`] such requests in a row given up on: close and reconnect.
     Silent,
 }
 
@@ -135,10 +136,10 @@ pub struct Connection<T: Transport> {
     /// Requests written and not answered yet.
     outstanding: Outstanding<Sent, MAX_OUTSTANDING>,
     /// Since when requests have waited with nothing received; `None` once every request
-    /// written has been answered. Giving up on a request leaves it running: see
-    /// [`SILENT_AFTER`].
+    /// written has been answered or passed over. Giving up on any other request leaves it
+    /// running: see [`SILENT_AFTER`].
     waiting_since: Option<Instant>,
-    /// Requests given up on since the last answer.
+    /// Requests given up on since the last answer, those passed over aside.
     timeouts_in_a_row: u8,
     /// When the latest-written request answered on this connection was written.
     answered_up_to: Option<Instant>,
@@ -319,11 +320,20 @@ impl<T: Transport> Connection<T> {
         self.give_up_on(id).map(|sent| (id, sent))
     }
 
-    /// Gives up on request `id`: its answer, if it comes, will be unsolicited, and it counts
-    /// towards [`SILENT_TIMEOUTS`].
+    /// Gives up on request `id`: its answer, if it comes, will be unsolicited. Unless the
+    /// robot passed it over (answered one written after it, as an older `robot_server` does
+    /// with a Type it ignores), it counts towards [`SILENT_TIMEOUTS`] and [`SILENT_AFTER`];
+    /// a passed-over one says nothing about whether the robot answers.
     fn give_up_on(&mut self, id: u16) -> Option<Sent> {
-        self.timeouts_in_a_row = self.timeouts_in_a_row.saturating_add(1);
-        self.outstanding.remove(id)
+        let sent = self.outstanding.remove(id)?;
+        if self.answered_up_to.is_some_and(|up_to| up_to > sent.at) {
+            if self.outstanding.is_empty() {
+                self.waiting_since = None;
+            }
+        } else {
+            self.timeouts_in_a_row = self.timeouts_in_a_row.saturating_add(1);
+        }
+        Some(sent)
     }
 
     /// When the oldest outstanding request will have waited `limit`.
