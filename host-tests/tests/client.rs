@@ -421,25 +421,34 @@ async fn a_request_given_up_on_still_counts_towards_silence() {
     assert_eq!(link.health(sent + SILENT_AFTER), Health::Silent);
 }
 
-#[tokio::test]
-async fn a_request_the_robot_passes_over_is_not_overdue_once_a_later_one_is_answered() {
-    // A robot that ignores the light's Type and answers everything else.
-    let addr = peer(|mut s| {
+/// A robot that ignores the light's Type (as an older `robot_server` does) and answers
+/// everything else.
+fn ignoring_the_light() -> std::net::SocketAddr {
+    peer(|mut s| {
         let mut d = FrameDecoder::new();
         while let Some((id, request)) = read_request(&mut s, &mut d) {
             if !matches!(request, Request::Light(_)) {
                 s.write_all(&answer(id, &perception())).unwrap();
             }
         }
-    });
-    let mut link = connected(addr).await;
-    let light = Request::Light(Light {
+    })
+}
+
+/// The light's request: steady red.
+fn red_light() -> Request {
+    Request::Light(Light {
         red: 255,
         green: 0,
         blue: 0,
         effect: LightEffect::Steady,
         brightness: 50,
-    });
+    })
+}
+
+#[tokio::test]
+async fn a_request_the_robot_passes_over_is_not_overdue_once_a_later_one_is_answered() {
+    let mut link = connected(ignoring_the_light()).await;
+    let light = red_light();
     link.send(&light).await.unwrap();
     let light_sent = Instant::now();
     assert_eq!(
@@ -464,23 +473,8 @@ async fn a_request_the_robot_passes_over_is_not_overdue_once_a_later_one_is_answ
 
 #[tokio::test]
 async fn giving_up_on_a_request_the_robot_passed_over_says_nothing_of_silence() {
-    // A robot that ignores the light's Type and answers everything else.
-    let addr = peer(|mut s| {
-        let mut d = FrameDecoder::new();
-        while let Some((id, request)) = read_request(&mut s, &mut d) {
-            if !matches!(request, Request::Light(_)) {
-                s.write_all(&answer(id, &perception())).unwrap();
-            }
-        }
-    });
-    let mut link = connected(addr).await;
-    let light = Request::Light(Light {
-        red: 0,
-        green: 255,
-        blue: 0,
-        effect: LightEffect::Steady,
-        brightness: 50,
-    });
+    let mut link = connected(ignoring_the_light()).await;
+    let light = red_light();
     // Two ignored requests, then one answered: neither give-up counts, though two in a
     // row that did would make the robot silent.
     link.send(&light).await.unwrap();
