@@ -66,10 +66,10 @@ pub const ANSWER_OVERDUE: Duration = Duration::from_millis(500);
 /// as the link allows.
 pub const STABLE_AFTER: Duration = Duration::from_secs(1);
 
-/// Nothing received for this long since a request was written, unless every request since has
-/// been answered, and the robot is silent: the connection is given up on. A request given up on
-/// still counts (a robot that ignored it has said nothing since), unless the robot answered
-/// one written after it.
+/// The robot is silent, and the connection given up on, when nothing is received for this long
+/// after a request it has not answered: one still outstanding, or one given up on (a robot
+/// that ignored it has said nothing since) unless the robot answered a request written after
+/// it.
 pub const SILENT_AFTER: Duration = Duration::from_secs(2);
 
 /// This many requests given up on in a row also make the robot silent.
