@@ -307,7 +307,14 @@ impl<T: Transport> Connection<T> {
         self.outstanding
             .iter()
             .map(|&(_, sent)| sent)
-            .find(|sent| self.answered_up_to.is_none_or(|up_to| sent.at > up_to))
+            .find(|sent| !self.passed_over(sent))
+    }
+
+    /// Whether the robot passed `sent` over: it answered a request written after it (as an
+    /// older `robot_server` does around a Type it ignores), so `sent`'s missing answer says
+    /// nothing about whether it answers.
+    fn passed_over(&self, sent: &Sent) -> bool {
+        self.answered_up_to.is_some_and(|up_to| up_to > sent.at)
     }
 
     /// Gives up on the oldest request if it has waited `limit` or longer at `now`, and
@@ -321,12 +328,11 @@ impl<T: Transport> Connection<T> {
     }
 
     /// Gives up on request `id`: its answer, if it comes, will be unsolicited. Unless the
-    /// robot passed it over (answered one written after it, as an older `robot_server` does
-    /// with a Type it ignores), it counts towards [`SILENT_TIMEOUTS`] and [`SILENT_AFTER`];
-    /// a passed-over one says nothing about whether the robot answers.
+    /// robot [passed it over](Connection::passed_over), it counts towards
+    /// [`SILENT_TIMEOUTS`] and [`SILENT_AFTER`].
     fn give_up_on(&mut self, id: u16) -> Option<Sent> {
         let sent = self.outstanding.remove(id)?;
-        if self.answered_up_to.is_some_and(|up_to| up_to > sent.at) {
+        if self.passed_over(&sent) {
             if self.outstanding.is_empty() {
                 self.waiting_since = None;
             }
