@@ -403,20 +403,14 @@ fn robot_hanging_up_after_each_answer(
 async fn a_pending_estop_is_not_sent_faster_than_it_repeats_to_a_robot_hanging_up_each_time() {
     let start = std::time::Instant::now();
     let (addr, log) = robot_hanging_up_after_each_answer(start);
-    let shared = Shared::new();
-    shared.set_network(NetworkState::Up);
-    let mut links = links(addr, backoff());
-    let config = config();
-    let mut pressed = 0.0;
-    tokio::select! {
-        _ = app::run(&config, &mut links, &shared) => unreachable!(),
-        _ = async {
-            sleep(500).await;
-            pressed = start.elapsed().as_secs_f64();
-            press(&shared, Button::Estop, true).await;
-            sleep(1000).await;
-        } => {}
-    }
+    let pressed = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        sleep(500).await;
+        let pressed = start.elapsed().as_secs_f64();
+        press(shared, Button::Estop, true).await;
+        sleep(1000).await;
+        pressed
+    })
+    .await;
     let log = log.lock().unwrap();
     let estops: Vec<f64> = log
         .iter()
