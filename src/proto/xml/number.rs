@@ -931,7 +931,8 @@ impl Window {
         // The largest power of ten with a multiple inside the window: the window holds a
         // multiple of 10^k exactly when high/10^k > (low-1)/10^k. Dividing by the constant
         // 10 compiles to a multiplication; a division by a variable power would not, so y's
-        // quotient is divided along.
+        // quotient is divided along. `high < 2^32` ends the loop within nine rounds, so
+        // `step` stays at most 10^9 and its product needs no overflow check.
         let (mut below, mut high) = (self.low.saturating_sub(1), self.high);
         let mut quotient = (self.y >> 32) as u32;
         let mut step = 1u32;
@@ -940,7 +941,7 @@ impl Window {
             high /= 10;
             below /= 10;
             quotient /= 10;
-            step = step.saturating_mul(10);
+            step = step.wrapping_mul(10);
             zeros += 1;
         }
         // The nearest multiple of `step` is one of the two around y.
@@ -975,22 +976,20 @@ impl Window {
     }
 }
 
-/// `y = x·10^s` and the half-step above it, times 2^32, if those are integers below 2^63: for
+/// `y = x·10^s` and the half-step above it, times 2^32, if those are integers: for
 /// `0 <= s <= 14` and a quarter-step `5^s·2^(e+s-2)` of at least `2^-32`, i.e. roughly
 /// `10^-6 <= x < 10^9`.
+///
+/// `s` must keep `x·10^s` below 10^9, as [`Window::new`]'s estimate does. Then `y < 2^62`:
+/// neither shift loses a bit or reaches 64, so they need no check (which cost 4 % of the
+/// writer's instructions).
 fn exact_fixed(x: Binary, s: i32) -> Option<(u64, u64)> {
     let s = u32::try_from(s).ok().filter(|&s| s <= 14)?;
     let p5 = pow5(s);
     let quarter = u32::try_from(x.e + s as i32 + 30).ok()?;
-    // m·5^s < 2^24·5^14 < 2^57; `shl` refuses to lose bits.
-    let y = shl(u64::from(x.m) * p5, quarter + 2)?;
-    let above = shl(p5, quarter + 1)?;
+    let y = (u64::from(x.m) * p5).wrapping_shl(quarter + 2);
+    let above = p5.wrapping_shl(quarter + 1);
     Some((y, above))
-}
-
-/// `v << n` if no bit is lost and the result stays below 2^63.
-fn shl(v: u64, n: u32) -> Option<u64> {
-    (n < v.leading_zeros()).then(|| v << n)
 }
 
 /// Writes `[-]digits·10^exponent` the way `{}` does, never with an exponent, for `digits`
