@@ -8,7 +8,8 @@ cd "$(dirname "$0")/.."
 root=$(pwd)
 source scripts/setup.sh
 
-step() { printf '\n=== %s\n' "$*"; }
+# Each step's header says how long the run has taken so far, to show where CI time goes.
+step() { printf '\n=== %s (at %d s)\n' "$*" "$SECONDS"; }
 
 step "format"
 cargo fmt --all --check
@@ -53,4 +54,4 @@ step "codec size"
 scripts/codec-size.sh
 
 echo
-echo "all checks passed"
+echo "all checks passed in $SECONDS s"
