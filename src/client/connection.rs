@@ -208,7 +208,7 @@ impl<T: Transport> Connection<T> {
                 info!("connected to the robot");
                 Ok(())
             }
-            Err(kind) => Err(self.retry_delay(kind)),
+            Err(kind) => Err(self.retry_delay(Some(kind))),
         }
     }
 
@@ -245,7 +245,7 @@ impl<T: Transport> Connection<T> {
         if core::mem::take(&mut self.answered) {
             self.backoff.reset();
         }
-        self.retry_delay(ErrorKind::TimedOut)
+        self.retry_delay(None)
     }
 
     /// How long to wait before reconnecting after the connection was lost: not at all if
@@ -258,18 +258,23 @@ impl<T: Transport> Connection<T> {
             self.backoff.reset();
             Duration::from_ticks(0)
         } else {
-            self.retry_delay(ErrorKind::ConnectionReset)
+            self.retry_delay(None)
         }
     }
 
-    /// The backoff's next delay, logged with why the connection failed.
-    fn retry_delay(&mut self, kind: ErrorKind) -> Duration {
+    /// The backoff's next delay, logged with why the connection could not be opened, if
+    /// that is the reason (a connection given up on or lost was logged by the caller, and
+    /// calling it a failed connect would mislead whoever reads the log).
+    fn retry_delay(&mut self, failure: Option<ErrorKind>) -> Duration {
         let retry_in = self.backoff.next_delay();
-        warn!(
-            "connection failed ({:?}); retrying in {} ms",
-            kind,
-            retry_in.as_millis()
-        );
+        match failure {
+            Some(kind) => warn!(
+                "connection failed ({:?}); retrying in {} ms",
+                kind,
+                retry_in.as_millis()
+            ),
+            None => warn!("next connection attempt in {} ms", retry_in.as_millis()),
+        }
         retry_in
     }
 
