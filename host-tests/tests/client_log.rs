@@ -1,5 +1,6 @@
-//! What the client logs when a robot pushes junk: a few lines, not one per frame. In a test
-//! binary of its own, because the logger it counts with is process-wide.
+//! What the client logs: a few lines when a robot pushes junk, not one per frame, and a
+//! connection given up on told apart from one that failed to open. In a test binary of its
+//! own, because the logger it counts with is process-wide.
 
 mod common;
 #[path = "common/peer.rs"]
@@ -10,7 +11,7 @@ use embassy_time::Duration;
 use peer::{answer, read_request};
 use std::io::Write as _;
 use std::net::TcpListener;
-use std::sync::Mutex;
+use std::sync::{Mutex, Once};
 use std::thread;
 use x30_panel::client::{Backoff, Connection};
 use x30_panel::proto::codes::ObsState;
@@ -38,13 +39,31 @@ impl log::Log for Recorder {
 
 static RECORDER: Recorder = Recorder;
 
+/// Starts recording warnings; the tests run side by side, and the logger can be set once.
+fn record_warnings() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        log::set_logger(&RECORDER).unwrap();
+        log::set_max_level(log::LevelFilter::Warn);
+    });
+}
+
+/// The recorded warnings that contain `what`.
+fn warnings_with(what: &str) -> Vec<String> {
+    let warnings = WARNINGS.lock().unwrap();
+    warnings
+        .iter()
+        .filter(|w| w.contains(what))
+        .cloned()
+        .collect()
+}
+
 /// How many pushed frames, and pieces of garbage, come before the answer.
 const JUNK: u16 = 100;
 
 #[tokio::test]
 async fn a_robot_pushing_junk_gets_a_log_line_per_power_of_two_not_per_frame() {
-    log::set_logger(&RECORDER).unwrap();
-    log::set_max_level(log::LevelFilter::Warn);
+    record_warnings();
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = listener.local_addr().unwrap();
     let perception = Response::Perception(Perception {
@@ -72,13 +91,45 @@ async fn a_robot_pushing_junk_gets_a_log_line_per_power_of_two_not_per_frame() {
     let anomalies = link.anomalies();
     assert_eq!(anomalies.unsolicited, u32::from(JUNK));
     assert_eq!(anomalies.stream_errors, u32::from(JUNK));
-    let warnings = WARNINGS.lock().unwrap();
-    let count = |what: &str| warnings.iter().filter(|w| w.contains(what)).count();
     // The 1st, 2nd, 4th, ... 64th of each kind: 7 of 100.
-    assert_eq!(count("skipped a frame"), 7, "{warnings:#?}");
-    assert_eq!(count("skipped bytes"), 7, "{warnings:#?}");
+    let frames = warnings_with("skipped a frame");
+    assert_eq!(frames.len(), 7, "{frames:#?}");
+    let bytes = warnings_with("skipped bytes");
+    assert_eq!(bytes.len(), 7, "{bytes:#?}");
     assert!(
-        warnings.iter().any(|w| w.contains("(64 so far)")),
-        "{warnings:#?}"
+        frames.iter().any(|w| w.contains("(64 so far)")),
+        "{frames:#?}"
+    );
+}
+
+#[tokio::test]
+async fn a_connection_given_up_on_logs_the_next_attempt_not_a_failed_connect() {
+    record_warnings();
+    // The kernel completes the connection; nobody answers on it.
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    let backoff = Backoff::new(Duration::from_millis(10), Duration::from_millis(100));
+    let mut link = Connection::new(TokioTransport::new(addr), backoff);
+    link.connect()
+        .await
+        .expect("the listener's backlog takes the connection");
+    let retry_in = link.give_up().await;
+    assert_eq!(
+        warnings_with("next connection attempt in"),
+        [format!(
+            "next connection attempt in {} ms",
+            retry_in.as_millis()
+        )]
+    );
+    assert_eq!(warnings_with("connection failed"), Vec::<String>::new());
+
+    // With nothing listening, opening the next connection fails, and says so.
+    drop(listener);
+    let retry_in = link.connect().await.expect_err("nothing listens");
+    let failed = warnings_with("connection failed");
+    assert_eq!(failed.len(), 1, "{failed:#?}");
+    assert!(
+        failed[0].ends_with(&format!("; retrying in {} ms", retry_in.as_millis())),
+        "{failed:#?}"
     );
 }
