@@ -981,7 +981,7 @@ impl Window {
 /// `10^-6 <= x < 10^9`.
 ///
 /// `s` must keep `x·10^s` below 10^9, as [`Window::new`]'s estimate does. Then `y < 2^62`:
-/// neither shift loses a bit or reaches 64, so they need no check (which cost 4 % of the
+/// neither shift loses a bit or reaches 64, so they need no check (which cost 3.5 % of the
 /// writer's instructions).
 fn exact_fixed(x: Binary, s: i32) -> Option<(u64, u64)> {
     let s = u32::try_from(s).ok().filter(|&s| s <= 14)?;
