@@ -40,7 +40,8 @@ use x30_panel::proto::message::{NavPoint, NavTask, Request, Response, RobotStatu
 use x30_panel::proto::time::Timestamp;
 use x30_panel::proto::xml::number;
 use x30_panel::proto::xml::reader::Tokenizer;
-use x30_panel::proto::xml::{StructureError, read_document, writer::DocumentWriter};
+use x30_panel::proto::xml::writer::{DocumentWriter, ItemName};
+use x30_panel::proto::xml::{StructureError, read_document};
 
 // ---------------------------------------------------------------------------------------
 // Allocation counting
@@ -140,6 +141,31 @@ const STATUS_1002: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 "#;
 
 /// A 1003 request with all 14 items: a task point on map 2, planned path, walk gait.
+/// The names of the 1002 answer's items, for the "layout with integer items only" row.
+static SKELETON_NAMES: [ItemName; 21] = [
+    ItemName::new("MotionState"),
+    ItemName::new("PosX"),
+    ItemName::new("PosY"),
+    ItemName::new("PosZ"),
+    ItemName::new("Roll"),
+    ItemName::new("Pitch"),
+    ItemName::new("Yaw"),
+    ItemName::new("Speed"),
+    ItemName::new("CurOdom"),
+    ItemName::new("SumOdom"),
+    ItemName::new("Res"),
+    ItemName::new("X0"),
+    ItemName::new("Y0"),
+    ItemName::new("H"),
+    ItemName::new("Electricity"),
+    ItemName::new("Location"),
+    ItemName::new("GaitState"),
+    ItemName::new("MotorState"),
+    ItemName::new("ChargeState"),
+    ItemName::new("ControlMode"),
+    ItemName::new("OnDockState"),
+];
+
 const NAV_1003: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 <PatrolDevice>
     <Type>1003</Type>
@@ -805,29 +831,7 @@ fn summary(f: &Fixtures, allocs: &AllocationReport, quick: bool) {
         // The 1002 layout with every value already as text: markup cost alone.
         let mut doc = DocumentWriter::begin(&mut buf, 1002, 1, black_box(&f.status_time))
             .expect("the header fits");
-        for name in [
-            "MotionState",
-            "PosX",
-            "PosY",
-            "PosZ",
-            "Roll",
-            "Pitch",
-            "Yaw",
-            "Speed",
-            "CurOdom",
-            "SumOdom",
-            "Res",
-            "X0",
-            "Y0",
-            "H",
-            "Electricity",
-            "Location",
-            "GaitState",
-            "MotorState",
-            "ChargeState",
-            "ControlMode",
-            "OnDockState",
-        ] {
+        for name in &SKELETON_NAMES {
             doc.int_item(name, 0).expect("the item fits");
         }
         doc.finish().expect("the document fits")

@@ -3,7 +3,7 @@
 use x30_panel::proto::frame::FrameError;
 use x30_panel::proto::message::{DecodeError, Response, ValidationError};
 use x30_panel::proto::xml::number::NumberError;
-use x30_panel::proto::xml::writer::WriteError;
+use x30_panel::proto::xml::writer::{ItemName, WriteError};
 
 #[test]
 fn decode_errors_name_the_item_and_the_problem() {
@@ -11,7 +11,7 @@ fn decode_errors_name_the_item_and_the_problem() {
     let err = Response::decode(xml.as_bytes()).unwrap_err();
     assert_eq!(err.to_string(), "item <ObsState>: not a decimal number");
     assert_eq!(
-        DecodeError::MissingItem("PosX").to_string(),
+        DecodeError::MissingItem(const { &ItemName::new("PosX") }).to_string(),
         "item <PosX> is missing"
     );
     assert_eq!(
@@ -36,7 +36,10 @@ fn other_errors_print_their_details() {
         "message 7: 5000-byte body is too long, skipped"
     );
     assert_eq!(
-        WriteError::NotFinite { item: "PosX" }.to_string(),
+        WriteError::NotFinite {
+            item: const { &ItemName::new("PosX") }
+        }
+        .to_string(),
         "item <PosX> is NaN or infinite"
     );
     assert_eq!(

@@ -9,6 +9,7 @@
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::*;
 use x30_panel::proto::time::Timestamp;
+use x30_panel::proto::xml::writer::ItemName;
 
 const T0: Timestamp = Timestamp::DOCUMENT_EPOCH;
 const T1: Timestamp = Timestamp {
@@ -267,7 +268,7 @@ fn status_missing_item_is_named() {
     let xml = "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><MotionState>0</MotionState></Items></PatrolDevice>";
     assert_eq!(
         Response::decode(xml.as_bytes()),
-        Err(DecodeError::MissingItem("PosX"))
+        Err(DecodeError::MissingItem(const { &ItemName::new("PosX") }))
     );
 }
 
@@ -732,13 +733,13 @@ fn light_document_sample_values_are_rejected() {
     let xml = "<?xml version='1.0' encoding='utf-8'?><PatrolDevice><Type>1101</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><Red>0</Red><Green>3.847</Green><Blue>-6.127</Blue><PER>0.082</PER><LUM>3.109</LUM></Items></PatrolDevice>";
     let err = Request::decode(xml.as_bytes()).unwrap_err();
     assert!(
-        matches!(err, DecodeError::BadItem { item: "Green", .. }),
+        matches!(err, DecodeError::BadItem { item, .. } if item.as_bytes() == b"Green"),
         "{err:?}"
     );
     let xml = xml.replace("3.847", "256");
     assert!(matches!(
         Request::decode(xml.as_bytes()),
-        Err(DecodeError::BadItem { item: "Green", .. })
+        Err(DecodeError::BadItem { item, .. }) if item.as_bytes() == b"Green"
     ));
 }
 
@@ -901,7 +902,7 @@ fn bad_numbers_are_named() {
         assert_eq!(
             Response::decode(base.replace(">X<", &format!(">{text}<")).as_bytes()),
             Err(DecodeError::BadItem {
-                item: "ObsState",
+                item: const { &ItemName::new("ObsState") },
                 error
             }),
             "{text}"
@@ -911,7 +912,7 @@ fn bad_numbers_are_named() {
     assert_eq!(
         Request::decode(float.as_bytes()),
         Err(DecodeError::BadItem {
-            item: "Value",
+            item: const { &ItemName::new("Value") },
             error: NumberError::OutOfRange
         })
     );
@@ -993,7 +994,9 @@ fn non_finite_floats_are_refused_by_name() {
     let mut buf = [0u8; 1024];
     assert_eq!(
         Request::Relocalize(pose).encode(&T0, &mut buf),
-        Err(WriteError::NotFinite { item: "PosY" })
+        Err(WriteError::NotFinite {
+            item: const { &ItemName::new("PosY") }
+        })
     );
     assert_eq!(
         Request::Relocalize(pose).validate(),
@@ -1048,7 +1051,7 @@ fn answers_may_report_nan_and_infinity_and_requests_may_not() {
                     .as_bytes()
             ),
             Err(DecodeError::BadItem {
-                item: "PosX",
+                item: const { &ItemName::new("PosX") },
                 error: NumberError::Invalid
             }),
             "{text}"
@@ -1061,15 +1064,21 @@ fn answers_may_report_nan_and_infinity_and_requests_may_not() {
         )
     };
     let requests = [
-        (envelope("2", "<Value>nan</Value>"), "Value"),
+        (
+            envelope("2", "<Value>nan</Value>"),
+            const { &ItemName::new("Value") },
+        ),
         (
             envelope(
                 "2101",
                 "<PosX>1</PosX><PosY>inf</PosY><PosZ>0</PosZ><Yaw>0</Yaw>",
             ),
-            "PosY",
+            const { &ItemName::new("PosY") },
         ),
-        (NAV_REQUEST.replace("<PosX>0.0<", "<PosX>-nan<"), "PosX"),
+        (
+            NAV_REQUEST.replace("<PosX>0.0<", "<PosX>-nan<"),
+            const { &ItemName::new("PosX") },
+        ),
     ];
     for (body, item) in requests {
         assert_eq!(
@@ -1142,7 +1151,7 @@ fn byte_items_out_of_range_are_refused_by_both_paths() {
             (Err(error), Err(number)) => assert_eq!(
                 error,
                 DecodeError::BadItem {
-                    item: "Red",
+                    item: const { &ItemName::new("Red") },
                     error: number
                 },
                 "{text}"

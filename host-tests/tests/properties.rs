@@ -30,7 +30,7 @@ use x30_panel::proto::frame::{self, FrameDecoder, FrameError, HEADER_LEN, SYNC};
 use x30_panel::proto::message::*;
 use x30_panel::proto::time::Timestamp;
 use x30_panel::proto::xml::number::NumberError;
-use x30_panel::proto::xml::writer::WriteError;
+use x30_panel::proto::xml::writer::{ItemName, WriteError};
 
 #[path = "common/reader_trace.rs"]
 mod reader_trace;
@@ -1314,7 +1314,7 @@ fn float_with_huge_exponent_is_out_of_range() {
     assert_eq!(
         Request::decode(doc("1e2147483648").as_bytes()),
         Err(DecodeError::BadItem {
-            item: "Value",
+            item: const { &ItemName::new("Value") },
             error: NumberError::OutOfRange
         })
     );

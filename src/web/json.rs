@@ -63,7 +63,7 @@ const fn items_max(mut spec: &[ItemSpec]) -> usize {
             // "-2147483648"
             Kind::Int | Kind::Byte => 11,
         };
-        total += item.name.len() + 4 + value;
+        total += item.name.as_bytes().len() + 4 + value;
         spec = rest;
     }
     total

@@ -12,7 +12,7 @@ use super::DecodeError;
 use crate::proto::codes::Code;
 use crate::proto::xml::Items;
 use crate::proto::xml::number;
-use crate::proto::xml::writer::{DocumentWriter, Number, WriteError};
+use crate::proto::xml::writer::{DocumentWriter, ItemName, Number, WriteError};
 
 /// What an item holds on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -41,7 +41,7 @@ pub(crate) enum Sender {
 pub struct ItemSpec {
     /// The element name as the document spells it. Reading matches it without regard to
     /// ASCII case, which also accepts the vendor client's `MapId` for `MapID`.
-    pub name: &'static str,
+    pub name: ItemName,
     /// Integer or float.
     pub kind: Kind,
     /// Whether a document without the item is an error.
@@ -250,7 +250,7 @@ impl NameFilter {
 #[inline(never)]
 pub(crate) fn write_values(
     doc: &mut DocumentWriter<'_>,
-    spec: &[ItemSpec],
+    spec: &'static [ItemSpec],
     values: &[u32],
     present: Present,
 ) -> Result<(), WriteError> {
@@ -262,7 +262,7 @@ pub(crate) fn write_values(
             Kind::Float => Number::Float(f32::from_bits(bits)),
             Kind::Int | Kind::Byte => Number::Int(bits as i32),
         };
-        doc.number_item(item.name, number)?;
+        doc.number_item(&item.name, number)?;
     }
     Ok(())
 }
@@ -296,9 +296,11 @@ pub(crate) fn read_values(
         let item = if let Some((spec, value)) = spec.get(next).zip(values.get_mut(next)) {
             let integer = match spec.kind {
                 Kind::Float => None,
-                Kind::Int => items.next_number(spec.name, number::parse_int_prefix::<i32>),
+                Kind::Int => {
+                    items.next_number(spec.name.as_bytes(), number::parse_int_prefix::<i32>)
+                }
                 Kind::Byte => items
-                    .next_number(spec.name, number::parse_int_prefix::<u8>)
+                    .next_number(spec.name.as_bytes(), number::parse_int_prefix::<u8>)
                     .map(i32::from),
             };
             if let Some(integer) = integer {
@@ -307,7 +309,7 @@ pub(crate) fn read_values(
                 next += 1;
                 continue;
             }
-            match items.next_plain(spec.name) {
+            match items.next_plain(spec.name.as_bytes()) {
                 Some((item, true)) => {
                     *value = parse_text(item.text, spec, sender)?;
                     present |= 1 << next;
@@ -344,7 +346,9 @@ pub(crate) fn read_values(
         0 => Ok((values, present)),
         missing => {
             let first = spec.get(missing.trailing_zeros() as usize);
-            Err(DecodeError::MissingItem(first.map_or("", |item| item.name)))
+            Err(DecodeError::MissingItem(
+                first.map_or(const { &ItemName::new("") }, |item| &item.name),
+            ))
         }
     }
 }
@@ -353,14 +357,14 @@ pub(crate) fn read_values(
 /// write it, naming the item on failure.
 pub(crate) fn parse_text(
     text: Option<&[u8]>,
-    spec: &ItemSpec,
+    spec: &'static ItemSpec,
     sender: Sender,
 ) -> Result<u32, DecodeError> {
     let bad = |error| DecodeError::BadItem {
-        item: spec.name,
+        item: &spec.name,
         error,
     };
-    let text = text.ok_or(DecodeError::ItemNotText(spec.name))?;
+    let text = text.ok_or(DecodeError::ItemNotText(&spec.name))?;
     match spec.kind {
         Kind::Float => match number::parse_f32(text) {
             Ok(value) => Ok(value.to_bits()),
@@ -381,14 +385,14 @@ pub(crate) fn parse_text(
 #[inline(never)]
 fn not_a_number(
     text: &[u8],
-    spec: &ItemSpec,
+    spec: &'static ItemSpec,
     sender: Sender,
     error: number::NumberError,
 ) -> Result<u32, DecodeError> {
     match (sender, number::parse_non_finite(text)) {
         (Sender::Robot, Some(value)) => Ok(value.to_bits()),
         _ => Err(DecodeError::BadItem {
-            item: spec.name,
+            item: &spec.name,
             error,
         }),
     }
@@ -425,7 +429,7 @@ macro_rules! item_set {
         impl $crate::proto::message::items::ItemSet for $name {
             const SPEC: &'static [$crate::proto::message::items::ItemSpec] = &[$(
                 $crate::proto::message::items::ItemSpec {
-                    name: $wire,
+                    name: $crate::proto::xml::writer::ItemName::new($wire),
                     kind: <$ty as $crate::proto::message::items::ItemValue>::KIND,
                     required: item_set!(@required $($default)?),
                 },

@@ -22,7 +22,7 @@ use crate::proto::codes::{MessageType, MotionCommandCode, MotionGait, RequestErr
 use crate::proto::time::Timestamp;
 use crate::proto::xml::number::NumberError;
 use crate::proto::xml::reader::{Tokenizer, XmlError};
-use crate::proto::xml::writer::{DocumentWriter, WriteError};
+use crate::proto::xml::writer::{DocumentWriter, ItemName, WriteError};
 use crate::proto::xml::{Envelope, Items, StructureError, read_tokens};
 use items::{
     ItemSet, ItemSpec, Kind, MAX_ITEMS, Sender, item_set, parse_text, read_values, write_values,
@@ -38,7 +38,7 @@ const DEFAULT_COMMAND: i32 = 1;
 
 /// The motion command's one item, `Value`: a float (a speed or a height).
 const MOTION_VALUE_FLOAT: ItemSpec = ItemSpec {
-    name: "Value",
+    name: ItemName::new("Value"),
     kind: Kind::Float,
     required: true,
 };
@@ -46,7 +46,7 @@ const MOTION_VALUE_FLOAT: ItemSpec = ItemSpec {
 /// The motion command's one item, `Value`, for a gait: an integer. Read as a float, a large
 /// one would be rounded.
 const MOTION_VALUE_INT: ItemSpec = ItemSpec {
-    name: "Value",
+    name: ItemName::new("Value"),
     kind: Kind::Int,
     required: true,
 };
@@ -64,13 +64,13 @@ pub enum DecodeError {
     /// A Type 2 `Command` this build does not know.
     UnknownCommand(i32),
     /// A required item is missing.
-    MissingItem(&'static str),
+    MissingItem(&'static ItemName),
     /// An item holds child elements where a value was expected.
-    ItemNotText(&'static str),
+    ItemNotText(&'static ItemName),
     /// An item's value does not parse or does not fit.
     BadItem {
         /// The item's element name.
-        item: &'static str,
+        item: &'static ItemName,
         /// What was wrong with its text.
         error: NumberError,
     },
@@ -516,7 +516,7 @@ fn read_motion(command: i32, items: &mut Items<'_>) -> Result<MotionCommand, Dec
             value = Some(parse_text(item.text, spec, Sender::Client)?);
         }
     }
-    let bits = value.ok_or(DecodeError::MissingItem(spec.name))?;
+    let bits = value.ok_or(DecodeError::MissingItem(&spec.name))?;
     match code {
         MotionCommandCode::SwitchGait => {
             Ok(MotionCommand::SwitchGait(MotionGait::from_raw(bits as i32)))

@@ -379,13 +379,13 @@ impl<'a> Items<'a> {
     #[inline]
     pub fn next_number<T>(
         &mut self,
-        name: &str,
+        name: &[u8],
         read: impl FnOnce(&[u8]) -> Option<(T, usize)>,
     ) -> Option<T> {
         if self.done {
             return None;
         }
-        self.tokens.simple_value(name.as_bytes(), read)
+        self.tokens.simple_value(name, read)
     }
 
     /// The next item if it is written plainly (`<name>text</name>`, the usual layout), and
@@ -393,11 +393,11 @@ impl<'a> Items<'a> {
     /// rather than scanned). Consumes nothing and returns `None` otherwise; [`Items::next`]
     /// then reads whatever is there. Returns exactly what [`Items::next`] would have.
     #[inline]
-    pub fn next_plain(&mut self, expected: &str) -> Option<(Item<'a>, bool)> {
+    pub fn next_plain(&mut self, expected: &[u8]) -> Option<(Item<'a>, bool)> {
         if self.done {
             return None;
         }
-        let (element, is_expected) = self.tokens.simple_element_expecting(expected.as_bytes())?;
+        let (element, is_expected) = self.tokens.simple_element_expecting(expected)?;
         self.tokens.take(&element);
         let item = Item {
             name: element.name,

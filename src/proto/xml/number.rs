@@ -793,13 +793,21 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
     if !value.is_finite() {
         return Err(NumberError::NotFinite);
     }
+    Ok(write_finite(value, out))
+}
+
+/// [`write_f32`] for a value the caller has checked is finite (anything else writes
+/// meaningless digits). The document writer checks first, because its items loop keeps
+/// the text's length in a register then, where a `Result` would come back through memory.
+#[inline(never)]
+pub(crate) fn write_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
     let bits = value.to_bits() & !(1 << 31);
     let (digits, exponent, len) = if bits == 0 {
         (0, 0, 1)
     } else {
         Window::new(bits).pick()
     };
-    Ok(render(value.is_sign_negative(), digits, exponent, len, out))
+    render(value.is_sign_negative(), digits, exponent, len, out)
 }
 
 /// Writes a NaN or an infinity as C's `printf` does (`nan`, `-nan`, `inf`, `-inf`), for

@@ -28,7 +28,7 @@ pub enum WriteError {
     /// A float item is NaN or infinite, which has no text form.
     NotFinite {
         /// The item's element name.
-        item: &'static str,
+        item: &'static ItemName,
     },
 }
 
@@ -47,49 +47,100 @@ impl Cursor<'_> {
         }
     }
 
-    /// Writes `    <name>`, the start of an item line, the name copied by `put_name`
-    /// ([`Cursor::put_name`] where the line is hot, [`Cursor::put`] where size matters more).
-    #[inline(always)]
-    fn open_tag(&mut self, name: &[u8], put_name: fn(&mut Self, &[u8])) {
+    /// Writes `    <name>`, the start of an item line.
+    fn open_tag(&mut self, name: &[u8]) {
         self.put(ITEM_INDENT);
         self.put(b"<");
-        put_name(self, name);
+        self.put(name);
         self.put(b">");
     }
 
-    /// Writes `</name>` and a newline, the end of an item line, the name copied by
-    /// `put_name`.
-    #[inline(always)]
-    fn close_tag(&mut self, name: &[u8], put_name: fn(&mut Self, &[u8])) {
+    /// Writes `</name>` and a newline, the end of an item line.
+    fn close_tag(&mut self, name: &[u8]) {
         self.put(b"</");
-        put_name(self, name);
+        self.put(name);
         self.put(b">\n");
     }
+}
 
-    /// [`Cursor::put`] for an element name: 1 to 16 bytes are copied as two overlapping
-    /// fixed-size pieces (a few loads and stores) rather than by a call to `memcpy`, which
-    /// costs more than such a short copy.
-    #[inline(always)]
-    fn put_name(&mut self, name: &[u8]) {
-        let rest = core::mem::take(&mut self.0);
-        let Some((head, tail)) = rest.split_at_mut_checked(name.len()) else {
-            return;
-        };
-        let n = name.len();
-        if (8..=16).contains(&n) {
-            copy_fixed::<8>(head, name, 0);
-            copy_fixed::<8>(head, name, n - 8);
-        } else if (4..8).contains(&n) {
-            copy_fixed::<4>(head, name, 0);
-            copy_fixed::<4>(head, name, n - 4);
-        } else if (1..4).contains(&n) {
-            // The first byte, then the last two (which a one-byte name does not have).
-            copy_fixed::<1>(head, name, 0);
-            copy_fixed::<2>(head, name, n.saturating_sub(2));
-        } else {
-            head.copy_from_slice(name);
+/// Room an [`ItemName`] takes: the longest item name (18 bytes, `BatteryTemperature`),
+/// padding, and the name's length in the last byte.
+const NAME_ROOM: usize = 20;
+
+/// An item's element name, kept padded to 20 bytes with its length in the last one, so that
+/// the writer copies any name with one fixed-size move and then writes over the padding,
+/// where a copy of the name's own length would branch on it.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub struct ItemName([u8; NAME_ROOM]);
+
+impl ItemName {
+    /// The name `name`, of at most 19 ASCII bytes. Every item name is a constant, so a name
+    /// that breaks this fails to compile rather than panicking.
+    pub const fn new(name: &str) -> Self {
+        let bytes = name.as_bytes();
+        assert!(
+            bytes.len() < NAME_ROOM && bytes.is_ascii(),
+            "an item name is at most 19 ASCII bytes"
+        );
+        let mut padded = [0; NAME_ROOM];
+        if let Some((head, _)) = padded.split_at_mut_checked(bytes.len()) {
+            head.copy_from_slice(bytes);
         }
-        self.0 = tail;
+        if let Some(last) = padded.last_mut() {
+            *last = bytes.len() as u8;
+        }
+        Self(padded)
+    }
+
+    /// The name's length; capped, so that the compiler knows it is below [`NAME_ROOM`] and
+    /// every store of an item line stays inside its window without a check.
+    const fn len(&self) -> usize {
+        let len = match self.0.last() {
+            Some(&len) => len as usize,
+            None => 0,
+        };
+        if len < NAME_ROOM { len } else { NAME_ROOM - 1 }
+    }
+
+    /// The name's bytes.
+    pub const fn as_bytes(&self) -> &[u8] {
+        match self.0.split_at_checked(self.len()) {
+            Some((name, _)) => name,
+            None => &[],
+        }
+    }
+}
+
+/// The name as text: its bytes are ASCII, so each is a character (no UTF-8 check, whose code
+/// the codec would otherwise link only for this).
+impl core::fmt::Display for ItemName {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        self.as_bytes()
+            .iter()
+            .try_for_each(|&c| core::fmt::Write::write_char(f, char::from(c)))
+    }
+}
+
+/// The name quoted, as a string's `Debug` shows it.
+impl core::fmt::Debug for ItemName {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "\"{self}\"")
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for ItemName {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "{=[u8]:a}", self.as_bytes());
+    }
+}
+
+/// Stores `bytes` at `at` in `window`; the caller's offsets keep it inside, so the check
+/// folds away.
+#[inline(always)]
+fn store<const N: usize>(window: &mut [u8; LINE_WINDOW], at: usize, bytes: &[u8; N]) {
+    if let Some(to) = window.get_mut(at..).and_then(|w| w.first_chunk_mut::<N>()) {
+        *to = *bytes;
     }
 }
 
@@ -109,7 +160,7 @@ impl Number {
     #[inline(always)]
     fn format(
         self,
-        item: &'static str,
+        item: &'static ItemName,
         non_finite: bool,
         out: &mut [u8; NUMBER_MAX],
     ) -> Result<usize, WriteError> {
@@ -117,54 +168,26 @@ impl Number {
             Self::Int(value) => Ok(out
                 .first_chunk_mut::<I32_TEXT_MAX>()
                 .map_or(0, |out| number::write_i32(value, out))),
-            Self::Float(value) => match number::write_f32(value, out) {
-                Ok(n) => Ok(n),
-                Err(_) if non_finite => Ok(number::write_non_finite(value, out)),
-                Err(_) => Err(WriteError::NotFinite { item }),
-            },
+            Self::Float(value) if value.is_finite() => Ok(number::write_finite(value, out)),
+            Self::Float(value) if non_finite => Ok(number::write_non_finite(value, out)),
+            Self::Float(_) => Err(WriteError::NotFinite { item }),
         }
     }
 }
 
-/// Copies the `N` bytes of `from` at `at` to the same place in `to`.
-#[inline(always)]
-fn copy_fixed<const N: usize>(to: &mut [u8], from: &[u8], at: usize) {
-    let from = from.get(at..).and_then(|f| f.first_chunk::<N>());
-    let to = to.get_mut(at..).and_then(|t| t.first_chunk_mut::<N>());
-    if let (Some(to), Some(from)) = (to, from) {
-        *to = *from;
-    }
-}
-
-/// Longest element name of an item line written in a window ([`DocumentWriter::number_item`]);
-/// the longest item name in the protocol has 14 bytes.
-const NAME_MAX: usize = 16;
-
 /// Longest number text written in a window.
 const NUMBER_MAX: usize = F32_TEXT_MAX;
 
-/// The window an item line is written in: room for the indentation, the longest name twice,
-/// the longest number and the tags' six bytes.
-const LINE_WINDOW: usize = 64 + NUMBER_MAX;
-
-/// Writes the indentation and tags of an item line around a number of `n` bytes already
-/// formatted in place, and returns the line's length. The name is at most [`NAME_MAX`] and
-/// `n` at most [`NUMBER_MAX`] bytes, so every piece lands inside the window.
-#[inline(always)]
-fn item_tags(window: &mut [u8; LINE_WINDOW], name: &[u8], n: usize) -> usize {
-    let name_len = name.len().min(NAME_MAX);
-    let end = ITEM_INDENT.len() + name_len + 2 + n.min(NUMBER_MAX);
-    Cursor(window).open_tag(name, Cursor::put_name);
-    Cursor(window.get_mut(end..).unwrap_or_default()).close_tag(name, Cursor::put_name);
-    end + name_len + 4
-}
+/// The window an item line is written in: room for the indentation, the tags' six bytes,
+/// the longest number and two whole padded names.
+const LINE_WINDOW: usize = ITEM_INDENT.len() + 6 + NUMBER_MAX + 2 * NAME_ROOM;
 
 /// The first `n` bytes of a formatted number.
 fn prefix(text: &[u8], n: usize) -> &[u8] {
     text.get(..n).unwrap_or_default()
 }
 
-const ITEM_INDENT: &[u8] = b"    ";
+const ITEM_INDENT: &[u8; 4] = b"    ";
 
 /// Writes one `<PatrolDevice>` document: header elements, then items, in the document's layout.
 ///
@@ -234,40 +257,44 @@ impl<'a> DocumentWriter<'a> {
     }
 
     /// Writes an integer item.
-    pub fn int_item(&mut self, name: &'static str, value: i32) -> Result<(), WriteError> {
+    pub fn int_item(&mut self, name: &'static ItemName, value: i32) -> Result<(), WriteError> {
         self.number_item(name, Number::Int(value))
     }
 
     /// Writes a float item.
-    pub fn float_item(&mut self, name: &'static str, value: f32) -> Result<(), WriteError> {
+    pub fn float_item(&mut self, name: &'static ItemName, value: f32) -> Result<(), WriteError> {
         self.number_item(name, Number::Float(value))
     }
 
     /// Writes one item line whose value is a number. Where the buffer has room for the
-    /// longest such line, the line is written into a fixed-size window of it: the tags are
-    /// stores at offsets checked once, and the number is formatted in place, between them,
-    /// never copied. Near the buffer's end (or for a name longer than any item's) it is
-    /// formatted aside and copied only if it fits. Always inlined: the codec writes every
-    /// item from one loop (over a message's item table), where a call per item (saving and
-    /// restoring the registers the formatting needs) would cost a fifth of the line.
+    /// longest such line, the line is written into a fixed-size window of it, in order:
+    /// each tag copies the whole padded name, and what follows the name (the `>`, the
+    /// number formatted in place, the line's end) is written over its padding. So the line
+    /// takes stores at offsets bounded by the window, no copy of the number, and no branch
+    /// on the name's length; bytes past the line's end may be overwritten. Near the
+    /// buffer's end the number is formatted aside and copied only if it fits. Always
+    /// inlined: the codec writes every item from one loop (over a message's item table),
+    /// where a call per item (saving and restoring the registers the formatting needs)
+    /// would cost a fifth of the line.
     #[inline(always)]
     pub(crate) fn number_item(
         &mut self,
-        name: &'static str,
+        name: &'static ItemName,
         value: Number,
     ) -> Result<(), WriteError> {
         self.open_items()?;
-        let bytes = name.as_bytes();
         let out = self.buf.get_mut(self.len..).unwrap_or_default();
-        let window = out
-            .first_chunk_mut::<LINE_WINDOW>()
-            .filter(|_| bytes.len() <= NAME_MAX);
-        let Some(window) = window else {
+        let Some(window) = out.first_chunk_mut::<LINE_WINDOW>() else {
             let mut text = [0; NUMBER_MAX];
             let n = value.format(name, self.non_finite, &mut text)?;
-            return self.number_line(bytes, prefix(&text, n));
+            return self.number_line(name.as_bytes(), prefix(&text, n));
         };
-        let start = ITEM_INDENT.len() + bytes.len() + 2;
+        let name_len = name.len();
+        let start = ITEM_INDENT.len() + 1 + name_len + 1;
+        store(window, 0, ITEM_INDENT);
+        store(window, ITEM_INDENT.len(), b"<");
+        store(window, ITEM_INDENT.len() + 1, &name.0);
+        store(window, start - 1, b">");
         let text = window
             .get_mut(start..)
             .and_then(|rest| rest.first_chunk_mut::<NUMBER_MAX>());
@@ -275,7 +302,11 @@ impl<'a> DocumentWriter<'a> {
             Some(text) => value.format(name, self.non_finite, text)?,
             None => 0,
         };
-        self.len += item_tags(window, bytes, n);
+        let end = start + n.min(NUMBER_MAX);
+        store(window, end, b"</");
+        store(window, end + 2, &name.0);
+        store(window, end + 2 + name_len, b">\n");
+        self.len += end + 4 + name_len;
         Ok(())
     }
 
@@ -289,9 +320,9 @@ impl<'a> DocumentWriter<'a> {
             .get_mut(self.len..self.len + total)
             .ok_or(WriteError::BufferFull)?;
         let mut out = Cursor(out);
-        out.open_tag(name, Cursor::put);
+        out.open_tag(name);
         out.put(text);
-        out.close_tag(name, Cursor::put);
+        out.close_tag(name);
         self.len += total;
         Ok(())
     }
