@@ -47,6 +47,21 @@ impl Cursor<'_> {
         }
     }
 
+    /// Copies a number's text, the first `len` bytes of `text`: where the rest has room, as
+    /// the whole array (one fixed-size copy instead of a call to `memcpy`), whose bytes past
+    /// `len` what follows overwrites.
+    #[inline(always)]
+    fn put_number(&mut self, text: &[u8; I32_TEXT_MAX], len: usize) {
+        let rest = core::mem::take(&mut self.0);
+        let len = len.min(I32_TEXT_MAX);
+        if let Some(whole) = rest.first_chunk_mut::<I32_TEXT_MAX>() {
+            *whole = *text;
+        } else if let Some(head) = rest.get_mut(..len) {
+            head.copy_from_slice(prefix(text, len));
+        }
+        self.0 = rest.get_mut(len..).unwrap_or_default();
+    }
+
     /// Writes `    <name>`, the start of an item line.
     fn open_tag(&mut self, name: &[u8]) {
         self.put(ITEM_INDENT);
@@ -216,8 +231,6 @@ impl<'a> DocumentWriter<'a> {
         let (mut type_text, mut command_text) = ([0; I32_TEXT_MAX], [0; I32_TEXT_MAX]);
         let type_len = number::write_i32(message_type, &mut type_text);
         let command_len = number::write_i32(command, &mut command_text);
-        let type_text = prefix(&type_text, type_len);
-        let command_text = prefix(&command_text, command_len);
         let mut time_text = [0; TIME_TEXT_LEN];
         time.encode(&mut time_text);
         const PIECES: [&[u8]; 4] = [
@@ -226,16 +239,14 @@ impl<'a> DocumentWriter<'a> {
             b"</Command>\n  <Time>",
             b"</Time>\n",
         ];
-        let total = PIECES.iter().map(|p| p.len()).sum::<usize>()
-            + type_text.len()
-            + command_text.len()
-            + TIME_TEXT_LEN;
+        let total =
+            PIECES.iter().map(|p| p.len()).sum::<usize>() + type_len + command_len + TIME_TEXT_LEN;
         let mut out = Cursor(buf.get_mut(..total).ok_or(WriteError::BufferFull)?);
         let [declaration, after_type, after_command, after_time] = PIECES;
         out.put(declaration);
-        out.put(type_text);
+        out.put_number(&type_text, type_len);
         out.put(after_type);
-        out.put(command_text);
+        out.put_number(&command_text, command_len);
         out.put(after_command);
         out.put(&time_text);
         out.put(after_time);
@@ -283,8 +294,11 @@ impl<'a> DocumentWriter<'a> {
         value: Number,
     ) -> Result<(), WriteError> {
         self.open_items()?;
-        let out = self.buf.get_mut(self.len..).unwrap_or_default();
-        let Some(window) = out.first_chunk_mut::<LINE_WINDOW>() else {
+        let window = self
+            .buf
+            .get_mut(self.len..)
+            .and_then(|out| out.first_chunk_mut());
+        let Some(window) = window else {
             let mut text = [0; NUMBER_MAX];
             let n = value.format(name, self.non_finite, &mut text)?;
             return self.number_line(name.as_bytes(), prefix(&text, n));
