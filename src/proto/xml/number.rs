@@ -1031,8 +1031,9 @@ fn render(
     };
     // The first of nine (zero-padded) digits alone, the others in one word, of which the
     // last `in_word` are the number's.
-    put(out, at, b'0' + (digits / 100_000_000) as u8);
-    let padded = eight_ascii(digits % 100_000_000);
+    let first = digits / 100_000_000;
+    put(out, at, b'0' + first as u8);
+    let padded = eight_ascii(digits - first * 100_000_000);
     let in_word = len.min(8);
     let word_at = at + len - in_word;
     let word = padded >> (8 * (8 - in_word));
