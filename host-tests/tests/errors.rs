@@ -56,3 +56,16 @@ fn errors_pass_through_question_mark_into_box_dyn_error() {
     }
     assert!(decode("nonsense").is_err());
 }
+
+#[test]
+fn item_names_print_as_their_text() {
+    // The longest item name the protocol has.
+    const NAME: ItemName = ItemName::new("BatteryTemperature");
+    assert_eq!(NAME.as_bytes(), b"BatteryTemperature");
+    assert_eq!(NAME.to_string(), "BatteryTemperature");
+    assert_eq!(format!("{NAME:?}"), "\"BatteryTemperature\"");
+    assert_eq!(
+        format!("{:?}", DecodeError::MissingItem(&NAME)),
+        "MissingItem(\"BatteryTemperature\")"
+    );
+}

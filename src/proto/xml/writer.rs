@@ -89,8 +89,8 @@ const NAME_ROOM: usize = 20;
 pub struct ItemName([u8; NAME_ROOM]);
 
 impl ItemName {
-    /// The name `name`, of at most 19 ASCII bytes. Every item name is a constant, so a name
-    /// that breaks this fails to compile rather than panicking.
+    /// The name `name`, of at most 19 ASCII bytes. Meant for constants, as every item name
+    /// is: there a name that breaks this fails to compile (at run time it would panic).
     pub const fn new(name: &str) -> Self {
         let bytes = name.as_bytes();
         assert!(
