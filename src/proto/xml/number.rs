@@ -799,14 +799,35 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
 /// [`write_f32`] for a value the caller has checked is finite (anything else writes
 /// meaningless digits). The document writer checks first, because its items loop keeps
 /// the text's length in a register then, where a `Result` would come back through memory.
+///
+/// The usual float's window is exact ([`exact_fixed`]); its digits are chosen and written
+/// here without a call, which would make the compiler save and restore more registers.
+/// Zero and any other float go to [`write_inexact`], so the text-writing code is here
+/// twice (820 bytes of flash for 5 % of the 1002 answer's encode).
 #[inline(never)]
 pub(crate) fn write_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
     let bits = value.to_bits() & !(1 << 31);
-    let (digits, exponent, len) = if bits == 0 {
-        (0, 0, 1)
+    // Zero's window is not exact either (its scale is out of range), so it goes on too.
+    match Window::new(bits, true) {
+        Some(window) => {
+            let (digits, exponent, len) = window.pick();
+            render(value.is_sign_negative(), digits, exponent, len, out)
+        }
+        _ => write_inexact(value, out),
+    }
+}
+
+/// [`write_finite`] for zero and for a float whose window is not exact.
+#[cold]
+#[inline(never)]
+fn write_inexact(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
+    let bits = value.to_bits() & !(1 << 31);
+    let window = if bits == 0 {
+        None
     } else {
-        Window::new(bits).pick()
+        Window::new(bits, false)
     };
+    let (digits, exponent, len) = window.map_or((0, 0, 1), |window| window.pick());
     render(value.is_sign_negative(), digits, exponent, len, out)
 }
 
@@ -853,8 +874,11 @@ struct Window {
 }
 
 impl Window {
-    /// The window of the positive float `bits`, with `y` in `[10^8, 10^9)`.
-    fn new(bits: u32) -> Self {
+    /// The window of the positive float `bits`, with `y` in `[10^8, 10^9)`; `None` if it
+    /// would not be exact and `exact_only` asks for no other. Inlined, so that with
+    /// `exact_only` set the approximate path is not there at all.
+    #[inline(always)]
+    fn new(bits: u32, exact_only: bool) -> Option<Self> {
         let x = Binary::decode(bits);
         // floor(log2 x) + 1, and the floor of that times log10(2) (exact for |v| < 1650 with
         // this constant): the decimal exponent of x is `estimate` or one less.
@@ -864,6 +888,7 @@ impl Window {
         // `above`: the half-step to the next float up, in the same units as `y`.
         let (mut y, mut above, exact) = match exact_fixed(x, scale) {
             Some((y, above)) => (y, above, true),
+            None if exact_only => return None,
             None => {
                 let power = Approx::pow10(scale);
                 let y = Approx::new(u64::from(x.m), x.e).mul(power);
@@ -899,7 +924,7 @@ impl Window {
             window.low = window.end(y - below, true);
             window.high = window.end(y + above, false);
         }
-        window
+        Some(window)
     }
 
     /// The first (`lower`) or last integer inside the interval that ends near `end`, for an
@@ -1007,6 +1032,7 @@ fn exact_fixed(x: Binary, s: i32) -> Option<(u64, u64)> {
 /// stores, runs of zeros included; bytes stored past the text's end are left for the
 /// caller to ignore. No store reaches past `out`'s end: the text's last byte is at most at
 /// 47, and stores that would pass 48 are moved back over bytes that are zeros anyway.
+#[inline(always)]
 fn render(
     negative: bool,
     digits: u32,
