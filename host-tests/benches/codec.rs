@@ -140,7 +140,6 @@ const STATUS_1002: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 </PatrolDevice>
 "#;
 
-/// A 1003 request with all 14 items: a task point on map 2, planned path, walk gait.
 /// The names of the 1002 answer's items, for the "layout with integer items only" row.
 static SKELETON_NAMES: [ItemName; 21] = [
     ItemName::new("MotionState"),
@@ -166,6 +165,7 @@ static SKELETON_NAMES: [ItemName; 21] = [
     ItemName::new("OnDockState"),
 ];
 
+/// A 1003 request with all 14 items: a task point on map 2, planned path, walk gait.
 const NAV_1003: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 <PatrolDevice>
     <Type>1003</Type>

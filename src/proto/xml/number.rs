@@ -796,9 +796,9 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
     Ok(write_finite(value, out))
 }
 
-/// [`write_f32`] for a value the caller has checked is finite (anything else writes
-/// meaningless digits). The document writer checks first, because its items loop keeps
-/// the text's length in a register then, where a `Result` would come back through memory.
+/// [`write_f32`] for a value the caller has checked is finite: NaN and infinities must not
+/// come here. The document writer checks first, because its items loop keeps the text's
+/// length in a register then, where a `Result` would come back through memory.
 ///
 /// The usual float's window is exact ([`exact_fixed`]); its digits are chosen and written
 /// here without a call, which would make the compiler save and restore more registers.
@@ -807,7 +807,8 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
 #[inline(never)]
 pub(crate) fn write_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
     let bits = value.to_bits() & !(1 << 31);
-    // Zero's window is not exact either (its scale is out of range), so it goes on too.
+    // Zero's window is not exact either (its scale is out of range), so zero goes to
+    // `write_inexact` too.
     match Window::new(bits, true) {
         Some(window) => {
             let (digits, exponent, len) = window.pick();
