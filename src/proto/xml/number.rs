@@ -802,8 +802,9 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
 ///
 /// The usual float's window is exact ([`exact_fixed`]); its digits are chosen and written
 /// here without a call, which would make the compiler save and restore more registers.
-/// Zero and any other float go to [`write_inexact`], so the text-writing code is here
-/// twice (792 bytes of flash for 5 % of the 1002 answer's encode).
+/// Zero and any other float go to [`write_inexact`], so the code that chooses and writes
+/// the digits is here twice (524 bytes of flash for 5 % of the 1002 answer's encode, against
+/// a cold path that returns only the digits).
 #[inline(never)]
 pub(crate) fn write_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
     let bits = value.to_bits() & !(1 << 31);
@@ -883,7 +884,16 @@ impl Window {
         let x = Binary::decode(bits);
         // floor(log2 x) + 1, and the floor of that times log10(2) (exact for |v| < 1650 with
         // this constant): the decimal exponent of x is `estimate` or one less.
-        let bit_top = x.e + (32 - x.m.leading_zeros()) as i32;
+        // A normal float's significand has 24 bits, so the exact-only path takes 24 instead
+        // of counting them: the count sat on the chain the writer waits on (5 % of a 1002
+        // encode). Zero and subnormals have fewer, but with 24 their scale still comes out
+        // far above 14, so they are not exact either way.
+        let significand_bits = if exact_only {
+            24
+        } else {
+            32 - x.m.leading_zeros()
+        };
+        let bit_top = x.e + significand_bits as i32;
         let estimate = (bit_top * 78_913) >> 18;
         let mut scale = 8 - estimate;
         // `above`: the half-step to the next float up, in the same units as `y`.
@@ -960,20 +970,30 @@ impl Window {
     }
 
     /// The shortest integer in the window, nearest to `y`, ties to the larger one; returned as
-    /// digits, decimal exponent and number of digits.
+    /// digits, decimal exponent and number of digits. Inlined, like [`render`], so that the
+    /// float writer's usual path makes no call.
+    #[inline(always)]
     fn pick(&self) -> (u32, i32, usize) {
         // The largest power of ten with a multiple inside the window: the window holds a
-        // multiple of 10^k exactly when high/10^k > (low-1)/10^k. Dividing by the constant
-        // 10 compiles to a multiplication; a division by a variable power would not, so y's
-        // quotient is divided along. `high < 2^32` ends the loop within nine rounds, so
-        // `step` stays at most 10^9 and its product needs no overflow check.
+        // multiple of 10^k exactly when high/10^k > (low-1)/10^k, and then one of 10^(k-1)
+        // too. So powers are tried two digits a round, then one more digit: a round number
+        // (0.05 drops eight) takes half the rounds, each of which waits on the one before.
+        // Dividing by a constant compiles to a multiplication; a division by a variable
+        // power would not, so y's quotient is divided along. `high < 2^32` ends the loop
+        // within four rounds, so `step` stays at most 10^9 and its product needs no
+        // overflow check.
         let (mut below, mut high) = (self.low.saturating_sub(1), self.high);
         let mut quotient = (self.y >> 32) as u32;
         let mut step = 1u32;
         let mut zeros = 0;
-        while high / 10 > below / 10 {
-            high /= 10;
-            below /= 10;
+        while high / 100 > below / 100 {
+            high /= 100;
+            below /= 100;
+            quotient /= 100;
+            step = step.wrapping_mul(100);
+            zeros += 2;
+        }
+        if high / 10 > below / 10 {
             quotient /= 10;
             step = step.wrapping_mul(10);
             zeros += 1;
@@ -1010,6 +1030,27 @@ impl Window {
     }
 }
 
+/// `5^s` for the exact window's scales, `s = 0..=14`. The writer waits on this: a plain
+/// table saves it the shift that [`pow5`] takes its value out of a significand with (2 % of
+/// a 1002 encode, for 80 bytes of flash).
+const POW5_EXACT: [u64; 15] = [
+    1,
+    5,
+    25,
+    125,
+    625,
+    3_125,
+    15_625,
+    78_125,
+    390_625,
+    1_953_125,
+    9_765_625,
+    48_828_125,
+    244_140_625,
+    1_220_703_125,
+    6_103_515_625,
+];
+
 /// `y = x·10^s` and the half-step above it, times 2^32, if those are integers: for
 /// `0 <= s <= 14` and a quarter-step `5^s·2^(e+s-2)` of at least `2^-32`, i.e. roughly
 /// `10^-6 <= x < 10^9`.
@@ -1018,8 +1059,8 @@ impl Window {
 /// neither shift loses a bit or reaches 64, so they need no check (which cost 3.5 % of the
 /// writer's instructions).
 fn exact_fixed(x: Binary, s: i32) -> Option<(u64, u64)> {
-    let s = u32::try_from(s).ok().filter(|&s| s <= 14)?;
-    let p5 = pow5(s);
+    let s = u32::try_from(s).ok()?;
+    let p5 = *POW5_EXACT.get(s as usize)?;
     let quarter = u32::try_from(x.e + s as i32 + 30).ok()?;
     let y = (u64::from(x.m) * p5).wrapping_shl(quarter + 2);
     let above = p5.wrapping_shl(quarter + 1);
