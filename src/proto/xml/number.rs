@@ -1009,7 +1009,7 @@ impl Window {
         };
         // `y` has nine digits, and so do the window's integers below 10^9; one of them with
         // `zeros` trailing zeros has `9 - zeros` more. 10^9 is a multiple of every step, so
-        // with it inside the loop ends at `zeros = 9`, choosing 1.
+        // with it inside the search ends at `zeros = 9`, choosing 1.
         (
             chosen,
             zeros - self.scale,
