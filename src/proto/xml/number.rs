@@ -195,15 +195,6 @@ fn decimal_len(n: u32) -> usize {
 /// Bit pattern of +infinity; as a [`Binary`] it decodes to 2^128, the value just above `f32::MAX`.
 const INF_BITS: u32 = 0x7f80_0000;
 
-/// `5^k` for `k <= 15`, exactly: its table entry shifted back down by as much as normalising
-/// shifted it up. The shift comes from `k`, alongside the load, rather than from the
-/// entry's trailing zeros after it: the float writer waits on this (measured: 1.5 % of a
-/// 1002 encode).
-fn pow5(k: u32) -> u64 {
-    let m = table(&POW5_FINE, k as usize);
-    m >> (63 - log2_pow5(k as i32))
-}
-
 /// `floor(k·log2(5))` for `-64 <= k < 64` (in 12.20 fixed point; checked for each such `k`).
 fn log2_pow5(k: i32) -> i32 {
     (k * 2_434_718) >> 20
@@ -329,7 +320,9 @@ impl Big {
         while e > 0 {
             // 5^13 is the largest power of five below 2^32.
             let step = e.min(13);
-            self.mul_small(pow5(step) as u32);
+            // `step <= 13` is always in the table.
+            let factor = POW5_EXACT.get(step as usize).copied().unwrap_or_default();
+            self.mul_small(factor as u32);
             e -= step;
         }
     }
@@ -1030,9 +1023,9 @@ impl Window {
     }
 }
 
-/// `5^s` for the exact window's scales, `s = 0..=14`. The writer waits on this: a plain
-/// table saves it the shift that [`pow5`] takes its value out of a significand with (2 % of
-/// a 1002 encode, for 80 bytes of flash).
+/// `5^k` for `k = 0..=14`, exactly: the exact window's scales, and [`Big::mul_pow5`]'s
+/// factors. The float writer waits on this: a plain table saves it the shift that would
+/// take the value out of [`POW5_FINE`]'s significand (2 % of a 1002 encode).
 const POW5_EXACT: [u64; 15] = [
     1,
     5,
