@@ -964,6 +964,27 @@ fn summary(f: &Fixtures, allocs: &AllocationReport, quick: bool) {
             .collect::<Vec<_>>()
             .join(" ")
     );
+    println!("(machine: {})", machine());
+}
+
+/// The processor this run measured, from `/proc/cpuinfo`: the ratios differ between
+/// processors (a Zen 4 EPYC runs the reference relatively faster than an older EPYC does),
+/// so a table compares only with runs on the same kind.
+fn machine() -> String {
+    let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let field = |key: &str| {
+        info.lines()
+            .filter_map(|line| line.split_once(':'))
+            .find(|(k, _)| k.trim() == key)
+            .map_or("?", |(_, v)| v.trim())
+    };
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    format!(
+        "{}, family {} model {}, {cores} cores",
+        field("model name"),
+        field("cpu family"),
+        field("model"),
+    )
 }
 
 // ---------------------------------------------------------------------------------------
