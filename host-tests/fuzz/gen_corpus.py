@@ -177,6 +177,10 @@ def seeds():
     yield "stream-oversized-then-frame", one_read + frame(b"x" * 2100, 3) + status
     yield "stream-declared-too-long-then-frame", one_read + SYNC + struct.pack("<HH", 65535, 4) + b"\0" * 8 + status
     yield "stream-bad-reserved-then-frame", one_read + frame(VENDOR["req-1004-cancel"], 5, reserved=b"\0\0\0\x01\0\0\0\0") + status
+    # Mode bit 4: a client's decoder, which reads frames whose reserved bytes are set; the
+    # second follows half a sync sequence, read 5 bytes at a time.
+    set_bytes = b"\xeb\x90\xeb\x90\x01\xff\x00\x80"
+    yield "stream-reserved-ignored", b"\x11\x04" + frame(VENDOR["resp-1002-status"], 1, reserved=set_bytes) + b"\xeb\x90" + frame(VENDOR["req-1004-cancel"], 5, reserved=set_bytes)
     yield "stream-truncated-frame", one_read + answer[: len(answer) // 2]
     yield "stream-empty-body", one_read + frame(b"", 9) + status
 

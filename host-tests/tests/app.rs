@@ -700,7 +700,7 @@ async fn leds_follow_the_robot() {
 
 #[tokio::test(flavor = "current_thread")]
 async fn every_fault_injection_option_is_survived() {
-    let options: [(&str, Faults); 9] = [
+    let options: [(&str, Faults); 10] = [
         (
             "delay",
             Faults {
@@ -733,6 +733,13 @@ async fn every_fault_injection_option_is_survived() {
             "unknown items",
             Faults {
                 unknown_items: true,
+                ..Default::default()
+            },
+        ),
+        (
+            "reserved header bytes set",
+            Faults {
+                reserved_bytes: true,
                 ..Default::default()
             },
         ),

@@ -203,6 +203,59 @@ fn bad_reserved_bytes_resynchronise() {
     assert_eq!(got.len(), 3);
 }
 
+/// A client reads an answer whose reserved bytes are set as if they were zero, at every
+/// read size, and keeps doing so after `clear`.
+#[test]
+fn ignored_reserved_bytes_do_not_hide_the_frame() {
+    let mut set = frame(1, b"answer");
+    set[8..HEADER_LEN].copy_from_slice(&[0xFF, 0xEB, 0x90, 0xEB, 0x90, 1, 0, 2]);
+    let bytes = [set.clone(), frame(2, b"next")].concat();
+    for chunk in 1..=bytes.len() {
+        let mut d = FrameDecoder::<64>::new().reserved(Reserved::Ignore);
+        assert_eq!(
+            run(&mut d, &bytes, chunk),
+            vec![Ok((1, b"answer".to_vec())), Ok((2, b"next".to_vec()))],
+            "chunk {chunk}"
+        );
+        d.clear();
+        assert_eq!(run(&mut d, &set, chunk), vec![Ok((1, b"answer".to_vec()))]);
+    }
+}
+
+/// Half a sync sequence before a frame whose reserved bytes are set: a client's decoder,
+/// which cannot hold the 37099-byte frame `EB 90 EB 90 EB 90` would declare, takes the
+/// later header without looking at its reserved bytes.
+#[test]
+fn overlapping_sync_prefix_before_reserved_bytes_set() {
+    let mut set = frame(9, b"z");
+    set[HEADER_LEN - 1] = 0x42;
+    let bytes = [vec![0xEB, 0x90], set].concat();
+    for chunk in 1..=bytes.len() {
+        let mut d = FrameDecoder::<64>::new().reserved(Reserved::Ignore);
+        assert_eq!(
+            run(&mut d, &bytes, chunk),
+            vec![
+                Err(FrameError::Garbage { skipped: 2 }),
+                Ok((9, b"z".to_vec()))
+            ],
+            "chunk {chunk}"
+        );
+    }
+}
+
+/// A decoder large enough for a 37099-byte frame tells the overlap apart by the later
+/// header's reserved bytes, as the robot's does, even while ignoring reserved bytes.
+#[test]
+fn large_decoder_ignoring_reserved_bytes_still_reads_a_37099_byte_frame() {
+    let body: Vec<u8> = (0..0x90EB_u32).map(|i| b'<' + (i % 7) as u8).collect();
+    let mut long = frame(0x90EB, &body);
+    long[8] = 3;
+    let bytes = [long, frame(4, b"after")].concat();
+    let mut d = Box::new(FrameDecoder::<40000>::new().reserved(Reserved::Ignore));
+    let got = run(&mut d, &bytes, 4096);
+    assert_eq!(got, vec![Ok((0x90EB, body)), Ok((4, b"after".to_vec()))]);
+}
+
 #[test]
 fn spare_and_commit_read_in_place() {
     let bytes = frame(42, b"in place");

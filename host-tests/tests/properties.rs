@@ -26,7 +26,7 @@ use proptest::sample::{Index, select};
 use proptest::test_runner::TestCaseError;
 
 use x30_panel::proto::codes::*;
-use x30_panel::proto::frame::{self, FrameDecoder, FrameError, HEADER_LEN, SYNC};
+use x30_panel::proto::frame::{self, FrameDecoder, FrameError, HEADER_LEN, Reserved, SYNC};
 use x30_panel::proto::message::*;
 use x30_panel::proto::time::Timestamp;
 use x30_panel::proto::xml::number::NumberError;
@@ -492,7 +492,16 @@ fn read_plan() -> impl Strategy<Value = Vec<(usize, bool)>> {
 /// and returns everything it handed out. Fails if the decoder stalls (takes no bytes
 /// while it has handed out everything), loops, or hands out a frame longer than `N - 16`.
 fn run<const N: usize>(stream: &[u8], plan: &[(usize, bool)]) -> Result<Vec<Event>, TestCaseError> {
-    let mut decoder = FrameDecoder::<N>::new();
+    run_as::<N>(Reserved::Refuse, stream, plan)
+}
+
+/// [`run`] with a decoder doing `reserved` with non-zero reserved bytes.
+fn run_as<const N: usize>(
+    reserved: Reserved,
+    stream: &[u8],
+    plan: &[(usize, bool)],
+) -> Result<Vec<Event>, TestCaseError> {
+    let mut decoder = FrameDecoder::<N>::new().reserved(reserved);
     let mut events = Vec::new();
     let mut rest = stream;
     let mut reads = plan.iter().cycle();
@@ -1072,6 +1081,32 @@ proptest! {
         let garbage = without_sync(&[], garbage);
         let stream = [garbage.as_slice(), &frame.bytes()].concat();
         for events in [run::<256>(&stream, &plan)?, run::<4096>(&stream, &plan)?] {
+            let (reports, skipped, rest) = leading_garbage(&events);
+            prop_assert_eq!(rest, &[frame.expected()][..], "events: {:?}", events);
+            prop_assert_eq!(skipped, garbage.len(), "events: {:?}", events);
+            prop_assert_eq!(reports > 0, !garbage.is_empty());
+        }
+    }
+
+    /// A client's decoder, which ignores reserved bytes: garbage that holds no sync
+    /// sequence (perhaps ending in half of one), then a frame whose reserved bytes are
+    /// anything. The decoder reports every garbage byte and then yields exactly that frame,
+    /// as if its reserved bytes were zero.
+    #[test]
+    fn frame_with_reserved_bytes_set_is_read_when_they_are_ignored(
+        garbage in vec(sync_ish_byte(), 0..600),
+        frame in fitting_frame(FrameDecoder::<256>::MAX_ASDU),
+        reserved in any::<[u8; 8]>(),
+        plan in read_plan(),
+    ) {
+        let garbage = without_sync(&[], garbage);
+        let mut bytes = frame.bytes();
+        bytes[8..HEADER_LEN].copy_from_slice(&reserved);
+        let stream = [garbage.as_slice(), &bytes].concat();
+        for events in [
+            run_as::<256>(Reserved::Ignore, &stream, &plan)?,
+            run_as::<4096>(Reserved::Ignore, &stream, &plan)?,
+        ] {
             let (reports, skipped, rest) = leading_garbage(&events);
             prop_assert_eq!(rest, &[frame.expected()][..], "events: {:?}", events);
             prop_assert_eq!(skipped, garbage.len(), "events: {:?}", events);

@@ -6,7 +6,7 @@ use embedded_io_async::{Error as _, ErrorKind, Read, Write};
 use super::{Backoff, ClientError, RobotClock};
 use crate::config::RobotAddress;
 use crate::proto::codes::MessageType;
-use crate::proto::frame::{self, FrameDecoder, MessageIds};
+use crate::proto::frame::{self, FrameDecoder, MessageIds, Reserved};
 use crate::proto::message::{
     Battery, CommandAck, DecodeError, Decoded, Light, MotionAck, MotionCommand, MotorTemperatures,
     NavResult, NavTask, NavTaskState, Perception, Relocalize, RelocalizeAck, Request, Response,
@@ -159,7 +159,8 @@ impl<T: Transport> Connection<T> {
         Self {
             transport,
             connected: false,
-            rx: FrameDecoder::new(),
+            // A robot whose software fills the header's reserved bytes is still read.
+            rx: FrameDecoder::new().reserved(Reserved::Ignore),
             tx: [0; TX_BUF],
             ids: MessageIds::new(),
             clock: RobotClock::new(),

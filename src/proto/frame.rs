@@ -12,6 +12,11 @@
 //! [`FrameDecoder`] accepts arbitrary chunks into a fixed buffer, hands out whole frames,
 //! finds the sync sequence again after garbage, and skips frames too long for its buffer
 //! without losing the frame that follows.
+//!
+//! The document reserves the last eight header bytes and fills them with zeros "for now".
+//! The robot refuses a request whose reserved bytes are not zero, and so does a decoder by
+//! default. A client reads answers with [`Reserved::Ignore`], so that a robot whose
+//! software puts something there is still understood.
 
 /// The four bytes that start every frame.
 pub const SYNC: [u8; 4] = [0xEB, 0x90, 0xEB, 0x90];
@@ -54,11 +59,17 @@ impl Header {
 
     /// Decodes 16 header bytes, checking the sync sequence and the reserved bytes.
     pub fn decode(bytes: &[u8; HEADER_LEN]) -> Result<Self, HeaderError> {
-        let [s0, s1, s2, s3, l0, l1, m0, m1, reserved @ ..] = *bytes;
+        Self::decode_as(bytes, Reserved::Refuse)
+    }
+
+    /// Decodes 16 header bytes, checking the sync sequence, and the reserved bytes if
+    /// `reserved` says so.
+    fn decode_as(bytes: &[u8; HEADER_LEN], reserved: Reserved) -> Result<Self, HeaderError> {
+        let [s0, s1, s2, s3, l0, l1, m0, m1, rest @ ..] = *bytes;
         if [s0, s1, s2, s3] != SYNC {
             return Err(HeaderError::BadSync);
         }
-        if reserved != [0; 8] {
+        if reserved == Reserved::Refuse && rest != [0; 8] {
             return Err(HeaderError::BadReserved);
         }
         Ok(Self {
@@ -158,8 +169,9 @@ pub enum FrameError {
         /// How many bytes were discarded.
         skipped: usize,
     },
-    /// A header had non-zero reserved bytes; the decoder searches for the next sync
-    /// sequence after its first byte (the robot's ErrorCode 2).
+    /// A header had non-zero reserved bytes and the decoder refuses them
+    /// ([`Reserved::Refuse`]); it searches for the next sync sequence after its first byte
+    /// (the robot's ErrorCode 2).
     BadReserved {
         /// The message ID the bad header carried.
         message_id: u16,
@@ -174,6 +186,21 @@ pub enum FrameError {
     },
 }
 
+/// What a [`FrameDecoder`] does with a header whose reserved bytes are not all zero.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Reserved {
+    /// Refuse the header ([`FrameError::BadReserved`]) and look for the next sync sequence,
+    /// as the robot does with a request (its ErrorCode 2).
+    Refuse,
+    /// Read the frame as if they were zero: what a client does with the robot's answers,
+    /// since the document only fills them with zeros "for now".
+    Ignore,
+}
+
+/// The length field of a header that starts `EB 90 EB 90 EB 90`: 37099 bytes.
+const OVERLAP_ASDU_LEN: usize = 0x90EB;
+
 /// A streaming frame decoder over a fixed buffer of `N` bytes.
 ///
 /// Frames whose header and body fit in `N` bytes are handed out whole. Feed it bytes with
@@ -182,6 +209,8 @@ pub enum FrameError {
 #[derive(Debug)]
 pub struct FrameDecoder<const N: usize> {
     buf: [u8; N],
+    /// Whether headers with non-zero reserved bytes are refused.
+    reserved: Reserved,
     /// First byte not yet examined.
     start: usize,
     /// One past the last byte received.
@@ -202,7 +231,8 @@ impl<const N: usize> FrameDecoder<N> {
     /// Largest ASDU this decoder hands out; longer frames are skipped.
     pub const MAX_ASDU: usize = N.saturating_sub(HEADER_LEN);
 
-    /// An empty decoder.
+    /// An empty decoder that refuses headers with non-zero reserved bytes
+    /// ([`Reserved::Refuse`]).
     pub const fn new() -> Self {
         // Telling overlapping sync sequences apart needs a header plus two bytes.
         const {
@@ -213,6 +243,7 @@ impl<const N: usize> FrameDecoder<N> {
         };
         Self {
             buf: [0; N],
+            reserved: Reserved::Refuse,
             start: 0,
             end: 0,
             skip: 0,
@@ -220,11 +251,17 @@ impl<const N: usize> FrameDecoder<N> {
         }
     }
 
+    /// The decoder, doing `policy` with headers whose reserved bytes are not zero.
+    pub const fn reserved(mut self, policy: Reserved) -> Self {
+        self.reserved = policy;
+        self
+    }
+
     /// Forgets every byte received, for example after the connection was re-opened.
     pub fn clear(&mut self) {
         *self = Self {
             buf: self.buf,
-            ..Self::new()
+            ..Self::new().reserved(self.reserved)
         };
     }
 
@@ -275,7 +312,7 @@ impl<const N: usize> FrameDecoder<N> {
                 self.garbage += dropped;
                 return None;
             };
-            let skip = match overlapping_sync(pending.get(at..).unwrap_or_default()) {
+            let skip = match self.overlapping_sync(pending.get(at..).unwrap_or_default()) {
                 Overlap::No => at,
                 Overlap::Later => at + 2,
                 Overlap::Undecided => {
@@ -299,7 +336,7 @@ impl<const N: usize> FrameDecoder<N> {
                 .buf
                 .get(self.start..self.end)
                 .and_then(|b| b.first_chunk::<HEADER_LEN>())?;
-            let header = match Header::decode(header) {
+            let header = match Header::decode_as(header, self.reserved) {
                 Ok(header) => header,
                 Err(HeaderError::BadReserved) => {
                     let message_id = u16::from_le_bytes([header[6], header[7]]);
@@ -341,6 +378,31 @@ impl<const N: usize> FrameDecoder<N> {
         self.start += n;
         self.skip -= n;
     }
+
+    /// `EB 90 EB 90 EB 90` is either a frame whose length field is `EB 90` (37099 bytes), or
+    /// garbage ending in half a sync sequence followed by a real frame two bytes later.
+    ///
+    /// A decoder that cannot hold 37099 bytes and ignores reserved bytes takes the later
+    /// header: the earlier frame would be skipped anyway, and no answer comes near that
+    /// length. Otherwise the later header is the real one when its reserved bytes are
+    /// zero: in a genuine 37099-byte frame those positions hold the start of the XML body,
+    /// never zeros.
+    fn overlapping_sync(&self, bytes: &[u8]) -> Overlap {
+        if bytes.get(SYNC.len()..SYNC.len() + 2) != SYNC.get(..2) {
+            return Overlap::No;
+        }
+        if self.reserved == Reserved::Ignore && Self::MAX_ASDU < OVERLAP_ASDU_LEN {
+            return Overlap::Later;
+        }
+        match bytes
+            .get(2..2 + HEADER_LEN)
+            .and_then(|b| b.first_chunk::<HEADER_LEN>())
+        {
+            None => Overlap::Undecided,
+            Some(later) if Header::decode(later).is_ok() => Overlap::Later,
+            Some(_) => Overlap::No,
+        }
+    }
 }
 
 /// Whether a sync sequence at the start of `bytes` hides another two bytes later.
@@ -351,24 +413,6 @@ enum Overlap {
     Later,
     /// More bytes are needed to tell.
     Undecided,
-}
-
-/// `EB 90 EB 90 EB 90` is either a frame whose length field is `EB 90` (37099 bytes), or
-/// garbage ending in half a sync sequence followed by a real frame two bytes later. The
-/// later header is the real one when its reserved bytes are zero: in a genuine 37099-byte
-/// frame those positions hold the start of the XML body, never zeros.
-fn overlapping_sync(bytes: &[u8]) -> Overlap {
-    if bytes.get(SYNC.len()..SYNC.len() + 2) != SYNC.get(..2) {
-        return Overlap::No;
-    }
-    match bytes
-        .get(2..2 + HEADER_LEN)
-        .and_then(|b| b.first_chunk::<HEADER_LEN>())
-    {
-        None => Overlap::Undecided,
-        Some(later) if Header::decode(later).is_ok() => Overlap::Later,
-        Some(_) => Overlap::No,
-    }
 }
 
 /// Position of the first complete sync sequence in `bytes`.

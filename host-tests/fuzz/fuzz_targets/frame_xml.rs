@@ -5,7 +5,8 @@
 //!
 //! - byte 0, the mode: bits 0–2 give `k`, how many read-size bytes follow (0: the whole
 //!   stream in one read); bit 3 set means reads go through `spare()` + `commit()` instead of
-//!   `feed()`.
+//!   `feed()`; bit 4 set means the decoder ignores reserved header bytes, as a client's
+//!   does, instead of refusing them, as the robot's does.
 //! - `k` bytes, each a read size of `byte + 1` bytes, used in turn.
 //! - the rest: the byte stream, fed to a `FrameDecoder<2048>`.
 //!
@@ -23,7 +24,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use x30_panel::proto::frame::{FrameDecoder, HEADER_LEN};
+use x30_panel::proto::frame::{FrameDecoder, HEADER_LEN, Reserved};
 use x30_panel::proto::message::{DecodeError, Decoded, Request, Response};
 use x30_panel::proto::time::Timestamp;
 use x30_panel::proto::xml::writer::WriteError;
@@ -39,12 +40,17 @@ fuzz_target!(|data: &[u8]| {
     };
     let k = usize::from(mode & 0b111);
     let use_spare = mode & 0b1000 != 0;
+    let reserved = if mode & 0b1_0000 != 0 {
+        Reserved::Ignore
+    } else {
+        Reserved::Refuse
+    };
     let (sizes, stream) = rest.split_at(k.min(rest.len()));
-    run(sizes, use_spare, stream);
+    run(sizes, use_spare, reserved, stream);
 });
 
-fn run(sizes: &[u8], use_spare: bool, stream: &[u8]) {
-    let mut decoder = FrameDecoder::<N>::new();
+fn run(sizes: &[u8], use_spare: bool, reserved: Reserved, stream: &[u8]) {
+    let mut decoder = FrameDecoder::<N>::new().reserved(reserved);
     let mut reads = sizes.iter().map(|&s| usize::from(s) + 1).cycle();
     let mut rest = stream;
     let mut budget = stream.len() + 1;

@@ -13,12 +13,13 @@ use core::hint::black_box;
 
 #[cfg(feature = "codec")]
 fn exercise(input: &[u8], out: &mut [u8]) -> usize {
-    use x30_panel::proto::frame::{self, FrameDecoder};
+    use x30_panel::proto::frame::{self, FrameDecoder, Reserved};
     use x30_panel::proto::message::{Request, Response};
     use x30_panel::proto::time::Timestamp;
 
     let mut total = 0;
-    let mut decoder = FrameDecoder::<1024>::new();
+    // As the panel reads answers.
+    let mut decoder = FrameDecoder::<1024>::new().reserved(Reserved::Ignore);
     decoder.feed(input);
     while let Some(Ok(f)) = decoder.decode() {
         if let Ok(response) = Response::decode(f.asdu) {

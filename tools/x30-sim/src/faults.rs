@@ -8,6 +8,8 @@ use std::fmt;
 use std::str::FromStr;
 use std::time::{Duration, Instant};
 
+use x30_panel::proto::frame::HEADER_LEN;
+
 /// The Type every answer carries under [`Faults::unknown_type`]: RTK position, added by
 /// vendor software after V1.0.12 (docs/protocol.md, "Unknown Types"), so a client built for
 /// V1.0.12 does not know it.
@@ -21,6 +23,10 @@ pub const MERGED_ID_OFFSET: u16 = 0x8000;
 /// sequence, but do contain a lone `EB` and `EB 90`, so a receiver that resynchronises
 /// byte by byte is exercised.
 pub const GARBAGE: &[u8] = &[0x55, 0xAA, 0x00, 0xEB, 0x90, 0x00, 0x7F, 0x0A];
+
+/// What [`Faults::reserved_bytes`] puts in the 8 reserved bytes of each answer's header,
+/// which the document fills with zeros "for now".
+pub const RESERVED_BYTES: [u8; 8] = [0x01, 0x00, 0x5A, 0xEB, 0x90, 0xFF, 0x00, 0x80];
 
 /// Items a real robot sends that the document does not list (docs/protocol.md, "Extra
 /// items"), one line each, in
@@ -73,6 +79,9 @@ pub struct Faults {
     pub hang_up_on: Vec<i32>,
     /// Put [`GARBAGE`] before each answer frame, in the same write.
     pub garbage: bool,
+    /// Fill the reserved bytes of each answer's header with [`RESERVED_BYTES`]: a
+    /// `robot_server` whose software uses them.
+    pub reserved_bytes: bool,
     /// Write each answer in chunks of this many bytes, about 1 ms apart, each its own write.
     /// `None` (or 0) writes each answer whole.
     pub split: Option<usize>,
@@ -190,6 +199,14 @@ pub fn alter_body(body: &[u8], faults: &Faults) -> Vec<u8> {
         body = replace_declaration(&body, faults.declaration);
     }
     body
+}
+
+/// Fills the reserved bytes of an encoded frame's header with [`RESERVED_BYTES`] if
+/// [`Faults::reserved_bytes`] asks.
+pub fn alter_header(frame: &mut [u8], faults: &Faults) {
+    if let (true, Some(reserved)) = (faults.reserved_bytes, frame.get_mut(8..HEADER_LEN)) {
+        reserved.copy_from_slice(&RESERVED_BYTES);
+    }
 }
 
 /// The bytes of one write: the frames in order (answers, and the extra frames of
@@ -448,6 +465,35 @@ mod tests {
         assert!(faults.refuses_connections(now));
         assert!(!faults.refuses_connections(later));
         assert!(!Faults::default().refuses_connections(now));
+    }
+
+    #[test]
+    fn reserved_bytes_fill_the_header_and_only_with_the_fault() {
+        use x30_panel::proto::frame::{self, FrameDecoder, FrameError, Reserved};
+        let mut bytes = vec![0; HEADER_LEN + 3];
+        frame::encode(&mut bytes, 7, b"abc").expect("frame");
+        let plain = bytes.clone();
+        alter_header(&mut bytes, &Faults::default());
+        assert_eq!(bytes, plain);
+        let faults = Faults {
+            reserved_bytes: true,
+            ..Faults::default()
+        };
+        alter_header(&mut bytes, &faults);
+        assert_eq!(bytes[..8], plain[..8]);
+        assert_eq!(bytes[8..HEADER_LEN], RESERVED_BYTES);
+        assert_eq!(bytes[HEADER_LEN..], *b"abc");
+        // A client's decoder reads the frame; the robot's refuses it.
+        let mut client = FrameDecoder::<64>::new().reserved(Reserved::Ignore);
+        client.feed(&bytes);
+        let frame = client.decode().expect("a frame").expect("read");
+        assert_eq!((frame.message_id, frame.asdu), (7, &b"abc"[..]));
+        let mut robot = FrameDecoder::<64>::new();
+        robot.feed(&bytes);
+        assert_eq!(
+            robot.decode(),
+            Some(Err(FrameError::BadReserved { message_id: 7 }))
+        );
     }
 
     #[test]

@@ -48,6 +48,10 @@ struct Cli {
     /// Send a few garbage bytes (no sync sequence) before each answer frame.
     #[arg(long)]
     garbage: bool,
+    /// Fill the 8 reserved bytes of each answer's header (zeros in the document) with
+    /// non-zero bytes.
+    #[arg(long)]
+    reserved_bytes: bool,
     /// Write each answer in chunks of N bytes, about 1 ms apart.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     split: Option<u64>,
@@ -141,6 +145,7 @@ impl Cli {
                 drop_after: self.drop_after,
                 hang_up_on: self.hang_up_on.clone(),
                 garbage: self.garbage,
+                reserved_bytes: self.reserved_bytes,
                 split: self.split.and_then(|n| usize::try_from(n).ok()),
                 merge: self.merge,
                 unknown_type: self.unknown_type,

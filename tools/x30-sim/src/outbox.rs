@@ -160,7 +160,8 @@ fn wire_bytes(shared: &Shared, outgoing: &Outgoing, faults: &Faults) -> Vec<u8> 
     faults::wire_bytes(&frames, faults)
 }
 
-/// Encodes one answer frame with the protocol core, then alters its body as the faults say.
+/// Encodes one answer frame with the protocol core, then alters its body and header as the
+/// faults say.
 ///
 /// Type 0 answers carry the all-zero time, as the document shows; others the wall clock.
 /// `None` only if the core refuses the answer, which the robot's finite values prevent.
@@ -176,6 +177,7 @@ pub fn encode_frame(message_id: u16, response: &Response, faults: &Faults) -> Op
     let mut frame = vec![0; HEADER_LEN + body.len()];
     let len = frame::encode(&mut frame, message_id, &body).ok()?;
     frame.truncate(len);
+    faults::alter_header(&mut frame, faults);
     Some(frame)
 }
 

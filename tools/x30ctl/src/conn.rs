@@ -3,7 +3,8 @@
 //! This is where the mistakes of existing clients (docs/protocol.md, "Mistakes of existing
 //! clients") are avoided:
 //! - bytes go through a [`FrameDecoder`], so split frames, several frames in one read and
-//!   garbage before a sync sequence are all handled, and the stream resynchronises;
+//!   garbage before a sync sequence are all handled, and the stream resynchronises; an
+//!   answer whose header's reserved bytes are not zero is read all the same;
 //! - answers are matched to requests by the protocol core's [`Outstanding`]: by message ID
 //!   (from a [`MessageIds`] counter), and a Type 0 answer whose ID matches no outstanding
 //!   request answers the oldest one; frames that answer no request are reported on stderr
@@ -20,7 +21,7 @@ use std::time::{Duration, Instant};
 
 use x30_panel::proto::codes::MessageType;
 use x30_panel::proto::frame::{
-    self, EncodeError, FrameDecoder, FrameError, HEADER_LEN, MessageIds,
+    self, EncodeError, FrameDecoder, FrameError, HEADER_LEN, MessageIds, Reserved,
 };
 use x30_panel::proto::message::{DecodeError, Decoded, MAX_REQUEST_LEN, Request, Response};
 use x30_panel::proto::outstanding::Outstanding;
@@ -40,6 +41,12 @@ pub const MAX_FRAME_LEN: usize = 16 * 1024;
 
 /// The frame decoder used for every connection and for `decode`.
 pub type Decoder = FrameDecoder<MAX_FRAME_LEN>;
+
+/// A decoder as every connection reads answers: reserved header bytes are ignored, as the
+/// panel ignores them, so a robot whose software fills them is still understood.
+pub fn decoder() -> Box<Decoder> {
+    Box::new(Decoder::new().reserved(Reserved::Ignore))
+}
 
 /// Requests one connection may have written and not seen answered; beyond this the oldest
 /// is given up on. Only `move` and `estop` send before the last answer is in: `move` stops
@@ -225,7 +232,7 @@ impl Connection {
                     return Ok(Self {
                         stream,
                         ids: MessageIds::new(),
-                        decoder: Box::default(),
+                        decoder: decoder(),
                         timeout,
                         frame_buf: Vec::new(),
                         outstanding: Outstanding::new(),
@@ -320,7 +327,7 @@ impl Connection {
     ///
     /// `check` runs after every read (at least every 100 ms) with the time waited so far,
     /// and says how long to go on. Answers to other outstanding requests are kept for their
-    /// own `wait`; other frames and stream errors (garbage, bad headers, oversize frames)
+    /// own `wait`; other frames and stream errors (garbage, oversize frames)
     /// are reported on stderr and skipped. If the wait ends without the answer (the
     /// deadline, [`Check::Abort`], a read error), the request is given up on: its late
     /// answer is then skipped quietly.

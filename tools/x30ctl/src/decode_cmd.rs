@@ -1,22 +1,24 @@
 //! `decode`: frames from a capture, printed decoded.
 //!
 //! The input is hex text (whitespace, newlines, `0x` prefixes, commas and `#` comments
-//! allowed) or the raw bytes of a TCP stream. It is run through the same [`Decoder`] a
-//! connection uses, so what is reported here (garbage before a sync sequence, headers with
-//! non-zero reserved bytes, oversize frames, a truncated last frame) is exactly how x30ctl
-//! would see that stream from a robot. Each event carries its byte offset in the input.
+//! allowed) or the raw bytes of a TCP stream. It is run through the same decoder a
+//! connection uses, so what is reported here (garbage before a sync sequence, oversize
+//! frames, a truncated last frame) is exactly how x30ctl would see that stream from a
+//! robot. A header whose reserved bytes are not zero is read like any other, as x30ctl and
+//! the panel read answers, and reported before its frame: the robot refuses such a request.
+//! Each event carries its byte offset in the input.
 
 use std::io::Read;
 
 use serde::Serialize;
 use x30_panel::proto::codes::MessageType;
-use x30_panel::proto::frame::{FrameError, HEADER_LEN, SYNC};
+use x30_panel::proto::frame::{FrameError, HEADER_LEN, Header, HeaderError, SYNC};
 use x30_panel::proto::message::{Request, Response};
 use x30_panel::proto::xml::{Envelope, StructureError, read_document};
 
 use crate::Ctx;
 use crate::cli::{DecodeArgs, InputFormat};
-use crate::conn::{Decoder, MAX_FRAME_LEN};
+use crate::conn::{self, MAX_FRAME_LEN};
 use crate::error::Error;
 use crate::render::{self, AnswerJson, RequestJson, emit};
 
@@ -34,9 +36,9 @@ enum Event {
     },
     /// Bytes without a sync sequence.
     Garbage { offset: usize, len: usize },
-    /// A header with non-zero reserved bytes; the decoder resynchronises after its first
-    /// byte.
-    BadHeader { offset: usize, message_id: u16 },
+    /// A header whose reserved bytes are not zero, read as if they were; its frame (or
+    /// oversize report) follows.
+    Reserved { offset: usize, message_id: u16 },
     /// A frame longer than the decoder accepts; skipped.
     Oversize {
         offset: usize,
@@ -167,16 +169,25 @@ fn parse_hex(input: &[u8]) -> Result<Vec<u8>, String> {
 
 /// Runs the bytes through a frame decoder, tracking where each event starts.
 fn scan(bytes: &[u8]) -> Vec<Event> {
-    let mut decoder = Box::<Decoder>::default();
+    let mut decoder = conn::decoder();
     let mut events = Vec::new();
-    // The decoder reports every byte it consumes exactly once (in a frame, a garbage run,
-    // one byte of a bad header, or a skipped oversize frame), in order, so adding them up
-    // gives each event's offset in the input.
+    // The decoder reports every byte it consumes exactly once (in a frame, a garbage run or
+    // a skipped oversize frame), in order, so adding them up gives each event's offset in
+    // the input.
     let mut cursor = 0usize;
     let mut fed = 0usize;
     loop {
         while let Some(item) = decoder.decode() {
             let offset = cursor;
+            let header = bytes
+                .get(offset..)
+                .and_then(|b| b.first_chunk::<HEADER_LEN>());
+            if let (Some(header), Ok(_) | Err(FrameError::TooLong { .. })) = (header, &item)
+                && Header::decode(header) == Err(HeaderError::BadReserved)
+            {
+                let message_id = u16::from_le_bytes([header[6], header[7]]);
+                events.push(Event::Reserved { offset, message_id });
+            }
             match item {
                 Ok(frame) => {
                     cursor += HEADER_LEN + frame.asdu.len();
@@ -192,10 +203,6 @@ fn scan(bytes: &[u8]) -> Vec<Event> {
                         offset,
                         len: skipped,
                     });
-                }
-                Err(FrameError::BadReserved { message_id }) => {
-                    cursor += 1;
-                    events.push(Event::BadHeader { offset, message_id });
                 }
                 Err(FrameError::TooLong {
                     message_id,
@@ -366,8 +373,8 @@ fn event_text(event: &Event, index: usize, xml: bool) -> String {
             "garbage at byte {offset}: {len} byte{} without a sync sequence, skipped",
             if *len == 1 { "" } else { "s" }
         ),
-        Event::BadHeader { offset, message_id } => format!(
-            "bad header at byte {offset}: reserved bytes not zero (message ID {message_id}); resynchronising after its first byte"
+        Event::Reserved { offset, message_id } => format!(
+            "header at byte {offset}: reserved bytes not zero (message ID {message_id}); read as zero, as x30ctl and the panel read answers (the robot refuses such a request: ErrorCode 2)"
         ),
         Event::Oversize {
             offset,
@@ -409,9 +416,9 @@ fn summary(events: &[Event], total: usize) -> String {
         })
         .sum();
     format!(
-        "{total} bytes: {frames} frame(s), {} garbage run(s) ({garbage} bytes), {} bad header(s), {} oversize frame(s), {} truncated frame(s)",
+        "{total} bytes: {frames} frame(s), {} garbage run(s) ({garbage} bytes), {} header(s) with reserved bytes set, {} oversize frame(s), {} truncated frame(s)",
         count(|e| matches!(e, Event::Garbage { .. })),
-        count(|e| matches!(e, Event::BadHeader { .. })),
+        count(|e| matches!(e, Event::Reserved { .. })),
         count(|e| matches!(e, Event::Oversize { .. })),
         count(|e| matches!(e, Event::Truncated { .. })),
     )
@@ -497,9 +504,9 @@ fn event_json(event: &Event, index: usize, xml: bool) -> String {
             len: Some(*len),
             ..EventJson::new("garbage", *offset)
         }),
-        Event::BadHeader { offset, message_id } => line(EventJson {
+        Event::Reserved { offset, message_id } => line(EventJson {
             message_id: Some(*message_id),
-            ..EventJson::new("bad_header", *offset)
+            ..EventJson::new("reserved", *offset)
         }),
         Event::Oversize {
             offset,

@@ -84,6 +84,20 @@ fn garbage_before_each_frame_is_skipped() {
 }
 
 #[test]
+fn answers_whose_reserved_header_bytes_are_set_are_read_byte_by_byte() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        reserved_bytes: true,
+        garbage: true,
+        split: Some(1),
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["status"])
+        .expect_code(0)
+        .stdout_has("motion state   force-control stand (3)");
+}
+
+#[test]
 fn split_answers_are_reassembled() {
     let sim = sim(1.0);
     for chunk in [1, 3, 17] {
@@ -305,10 +319,11 @@ fn answer_of_the_wrong_type_is_reported() {
 fn unsolicited_and_garbled_frames_before_the_answer_are_skipped() {
     let addr = fake_robot(|id| {
         let mut bytes = b"\x00\xEB\x90noise".to_vec();
-        // A frame with non-zero reserved bytes, an undecodable frame, a stale answer.
-        let mut bad = encode_response(id.wrapping_add(5), &Response::Battery(battery()));
-        bad[10] = 1;
-        bytes.extend_from_slice(&bad);
+        // An unsolicited frame whose reserved bytes are set (read all the same), an
+        // undecodable frame, a stale answer.
+        let mut reserved = encode_response(id.wrapping_add(5), &Response::Battery(battery()));
+        reserved[10] = 1;
+        bytes.extend_from_slice(&reserved);
         let mut nonsense = vec![0; HEADER_LEN + 5];
         let n = frame::encode(&mut nonsense, 77, b"<a/>x").expect("frame");
         bytes.extend_from_slice(&nonsense[..n]);
@@ -324,9 +339,23 @@ fn unsolicited_and_garbled_frames_before_the_answer_are_skipped() {
     x30ctl_raw(&["--robot", &addr, "battery"])
         .expect_code(0)
         .stdout_has("level          33 %")
-        .stderr_has("skipped a frame header with non-zero reserved bytes")
+        .stderr_has("ignored an unsolicited Type 2001 frame with message ID 5")
         .stderr_has("ignored an undecodable frame with message ID 77")
         .stderr_has("ignored an unsolicited Type 2001 frame with message ID 1");
+}
+
+#[test]
+fn answer_whose_reserved_header_bytes_are_set_is_read() {
+    let addr = fake_robot(|id| {
+        let mut real = battery();
+        real.battery_level = 41;
+        let mut bytes = encode_response(id, &Response::Battery(real));
+        bytes[8..HEADER_LEN].copy_from_slice(&[1, 2, 3, 4, 5, 6, 7, 8]);
+        bytes
+    });
+    x30ctl_raw(&["--robot", &addr, "battery"])
+        .expect_code(0)
+        .stdout_has("level          41 %");
 }
 
 fn battery() -> x30_panel::proto::message::Battery {
@@ -402,7 +431,9 @@ fn decode_hex_capture_with_garbage_and_an_oversize_frame() {
         .stdout_has(
             "navigation to point 12: failed (ErrorCode 1), battery too low (ErrorStatus 41730)",
         )
-        .stdout_has("2 frame(s), 1 garbage run(s) (9 bytes), 0 bad header(s), 1 oversize frame(s)");
+        .stdout_has(
+            "2 frame(s), 1 garbage run(s) (9 bytes), 0 header(s) with reserved bytes set, 1 oversize frame(s)",
+        );
 }
 
 #[test]
