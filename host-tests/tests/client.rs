@@ -255,7 +255,7 @@ fn ack(command: MotionCommand) -> Response {
     Response::Motion(
         command.code(),
         MotionAck {
-            value: -1.0,
+            value: Some(-1.0),
             result: CommandResult::Success,
         },
     )

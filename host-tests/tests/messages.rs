@@ -523,12 +523,46 @@ fn motion_2_request_and_response() {
         Response::Motion(
             MotionCommandCode::Forward,
             MotionAck {
-                value: -1.0,
+                value: Some(-1.0),
                 result: CommandResult::Success
             }
         )
     );
     assert_response_round_trip(&ack);
+}
+
+/// A Type 2 answer that leaves out the `Value` echo is read: its `ErrorCode` alone says
+/// what the robot did. It encodes back without `Value`.
+#[test]
+fn motion_answer_without_value() {
+    let ack = response(
+        "<PatrolDevice><Type>2</Type><Command>13</Command><Time>2023-01-01 00:00:00</Time>\
+         <Items><ErrorCode>0</ErrorCode></Items></PatrolDevice>",
+    );
+    assert_eq!(
+        ack.message,
+        Response::Motion(
+            MotionCommandCode::SoftEmergencyStop,
+            MotionAck {
+                value: None,
+                result: CommandResult::Success
+            }
+        )
+    );
+    let mut out = [0u8; 512];
+    let n = ack.message.encode(&ack.time, &mut out).unwrap();
+    let text = std::str::from_utf8(&out[..n]).unwrap();
+    assert!(!text.contains("<Value>"), "{text}");
+    assert_response_round_trip(&ack);
+    // Without ErrorCode it is still refused, naming the item.
+    let no_result = Response::decode(
+        b"<PatrolDevice><Type>2</Type><Command>13</Command><Time>2023-01-01 00:00:00</Time>\
+          <Items><Value>-1</Value></Items></PatrolDevice>",
+    );
+    assert!(
+        matches!(no_result, Err(DecodeError::MissingItem(name)) if name.as_bytes() == b"ErrorCode"),
+        "{no_result:?}"
+    );
 }
 
 /// All eleven V1.0.12 commands and the vendor extensions, with their Command and Value.

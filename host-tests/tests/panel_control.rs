@@ -1036,7 +1036,10 @@ fn connection_is_reported() {
 
 #[test]
 fn answers_say_whether_a_command_succeeded() {
-    let ack = |result| MotionAck { value: 0.5, result };
+    let ack = |result| MotionAck {
+        value: Some(0.5),
+        result,
+    };
     assert!(succeeded(&Response::Motion(
         MotionCommandCode::Forward,
         ack(CommandResult::Success)

@@ -300,8 +300,15 @@ fn command_answers_show_on_the_fault_led() {
     let fault = |p: &Panel| p.indicators(at(10)).fault;
     p.command_answered(Err(&ClientError::Timeout));
     assert_eq!(fault(&p), Led::Blink, "no answer");
-    let ack =
-        |result| Response::Motion(MotionCommandCode::LieDown, MotionAck { value: 0.0, result });
+    let ack = |result| {
+        Response::Motion(
+            MotionCommandCode::LieDown,
+            MotionAck {
+                value: Some(0.0),
+                result,
+            },
+        )
+    };
     p.command_answered(Ok(&ack(CommandResult::Success)));
     assert_eq!(fault(&p), Led::Off);
     p.command_answered(Ok(&ack(CommandResult::Failure)));

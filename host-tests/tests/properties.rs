@@ -307,7 +307,7 @@ fn response() -> impl Strategy<Value = Response> {
             })
         }),
         1 => ack().prop_map(Response::Light),
-        2 => (raw_code(), reading_f32(), raw_code()).prop_map(|(command, value, result)| {
+        2 => (raw_code(), proptest::option::of(reading_f32()), raw_code()).prop_map(|(command, value, result)| {
             Response::Motion(
                 MotionCommandCode::from_raw(command),
                 MotionAck { value, result: CommandResult::from_raw(result) },

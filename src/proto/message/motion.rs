@@ -271,8 +271,10 @@ pub enum MotionValue {
 item_set! {
     /// Type 2 answer: the command's value echoed and whether it was carried out.
     pub struct MotionAck {
-        /// `Value` as requested (a gait number arrives as an integral float).
-        pub value: f32 = "Value";
+        /// `Value` as requested (a gait number arrives as an integral float); `None` if the
+        /// answer leaves it out. Only `ErrorCode` says what the robot did, so an answer
+        /// without the echo is still read rather than taken for a failure.
+        pub value: Option<f32> = "Value", default None;
         /// Success, or failure (a navigation task running, a bad speed).
         #[cfg_attr(feature = "serde", serde(rename = "error_code"))]
         pub result: CommandResult = "ErrorCode";

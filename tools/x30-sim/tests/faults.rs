@@ -408,7 +408,7 @@ fn refused_estops_fail_and_change_nothing() {
     for left in [1, 0] {
         let ack = client.motion(MotionCommand::SoftEmergencyStop);
         assert_eq!(ack.result, CommandResult::Failure);
-        assert_eq!(ack.value, -1.0);
+        assert_eq!(ack.value, Some(-1.0));
         assert_eq!(client.status().motion_state, MotionState::Stepping);
         assert_eq!(sim.faults().refuse_estops, left);
     }

@@ -27,7 +27,7 @@ fn motion_moves_the_pose_at_4hz_and_stops_400ms_after_the_last_command() {
         let ack = client.motion(MotionCommand::Move(Direction::Forward, Speed::Default));
         last = Instant::now();
         assert_eq!(ack.result, CommandResult::Success);
-        assert_eq!(ack.value, -1.0);
+        assert_eq!(ack.value, Some(-1.0));
         if i == 2 {
             let status = client.status();
             assert_eq!(status.motion_state, MotionState::Stepping);
@@ -152,7 +152,7 @@ fn out_of_range_speeds_are_refused() {
     ] {
         let ack = client.motion(bad);
         assert_eq!(ack.result, CommandResult::Failure, "{bad:?}");
-        assert_eq!(ack.value, bad.value_f32());
+        assert_eq!(ack.value, Some(bad.value_f32()));
     }
     assert_eq!(client.status().motion_state, MotionState::ForceControlStand);
     for good in [
@@ -195,7 +195,7 @@ fn gait_switch_is_reflected_in_status() {
     ] {
         let ack = client.motion(MotionCommand::SwitchGait(gait));
         assert_eq!(ack.result, CommandResult::Success);
-        assert_eq!(ack.value, gait.raw() as f32);
+        assert_eq!(ack.value, Some(gait.raw() as f32));
         assert_eq!(client.status().gait_state, state, "{gait:?}");
     }
     client.motion(MotionCommand::SwitchGait(MotionGait::PerceptionStairs));

@@ -369,7 +369,9 @@ fn motion_ack_text(code: MotionCommandCode, ack: &MotionAck) -> String {
         "{} (Type 2 Command {}, {}): {} (ErrorCode {})",
         code.description(),
         code.raw(),
-        motion_value_text(code, ack.value),
+        ack.value.map_or("no Value echoed".to_owned(), |value| {
+            motion_value_text(code, value)
+        }),
         ack.result.description(),
         ack.result.raw()
     )

@@ -345,6 +345,20 @@ fn unsolicited_and_garbled_frames_before_the_answer_are_skipped() {
 }
 
 #[test]
+fn motion_answer_without_its_value_echo_is_read() {
+    let addr = fake_robot(|id| {
+        let ack = MotionAck {
+            value: None,
+            result: CommandResult::Success,
+        };
+        encode_response(id, &Response::Motion(MotionCommandCode::LieDown, ack))
+    });
+    x30ctl_raw(&["--robot", &addr, "lie-down"])
+        .expect_code(0)
+        .stdout_has("lie down (Type 2 Command 15, no Value echoed): success (ErrorCode 0)");
+}
+
+#[test]
 fn answer_whose_reserved_header_bytes_are_set_is_read() {
     let addr = fake_robot(|id| {
         let mut real = battery();
@@ -598,7 +612,7 @@ fn late_type_0_to_an_abandoned_move_command_is_skipped() {
         let ack = Response::Motion(
             MotionCommandCode::ZeroVelocity,
             MotionAck {
-                value: 0.0,
+                value: Some(0.0),
                 result: CommandResult::Success,
             },
         );

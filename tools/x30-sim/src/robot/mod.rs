@@ -871,7 +871,7 @@ pub fn motion_answer(command: &MotionCommand, ok: bool) -> Response {
     Response::Motion(
         command.code(),
         MotionAck {
-            value,
+            value: Some(value),
             result: result(ok),
         },
     )

@@ -226,7 +226,7 @@ fn gait_switch_uses_the_status_numbering() {
         A,
         ms(0),
     )) {
-        Response::Motion(MotionCommandCode::SwitchGait, ack) => assert_eq!(ack.value, 4.0),
+        Response::Motion(MotionCommandCode::SwitchGait, ack) => assert_eq!(ack.value, Some(4.0)),
         other => panic!("{other:?}"),
     }
 }
