@@ -198,8 +198,9 @@ pub enum Reserved {
     Ignore,
 }
 
-/// The length field of a header that starts `EB 90 EB 90 EB 90`: 37099 bytes.
-const OVERLAP_ASDU_LEN: usize = 0x90EB;
+/// The length field of a header that starts `EB 90 EB 90 EB 90` (the sync sequence's first
+/// half, little-endian): 37099 bytes.
+const OVERLAP_ASDU_LEN: usize = u16::from_le_bytes([SYNC[0], SYNC[1]]) as usize;
 
 /// A streaming frame decoder over a fixed buffer of `N` bytes.
 ///

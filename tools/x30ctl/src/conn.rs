@@ -624,16 +624,14 @@ fn is_disconnect(e: &io::Error) -> bool {
     )
 }
 
-/// A stream error of the frame decoder, as text.
+/// A stream error of the connections' decoder, as text. It reads headers whose reserved
+/// bytes are set ([`decoder`]), so it never reports them.
 pub fn stream_error_text(e: &FrameError) -> String {
     match e {
         FrameError::Garbage { skipped } => format!(
             "skipped {skipped} byte{} of garbage before a sync sequence",
             if *skipped == 1 { "" } else { "s" }
         ),
-        FrameError::BadReserved { message_id } => {
-            format!("skipped a frame header with non-zero reserved bytes (message ID {message_id})")
-        }
         FrameError::TooLong {
             message_id,
             asdu_len,
