@@ -124,6 +124,8 @@ REAL = {
         ("Res", "0.05"), ("X0", "-25.6"), ("Y0", "-12.8"), ("H", "1024"), ("Electricity", "87"),
         ("Location", "1"), ("GaitState", "0"), ("MotorState", "0"), ("ChargeState", "0"),
         ("ControlMode", "1"), ("OnDockState", "0")]),
+    # A robot that reports less than the document lists: MotionState alone.
+    "resp-1002-status-sparse": doc(1002, 1, "2024-11-19 10:42:07", [("MotionState", "6")]),
     "req-1003-two-blocks-mapid": (
         DQ + "\n<PatrolDevice>\n  <Type>1003</Type>\n  <Command>1</Command>\n  <Time>2024-11-19 10:42:07</Time>\n"
         + "".join("  <Items>\n" + "".join(f"    <{k}>{v}</{k}>\n" for k, v in items) + "  </Items>\n"

@@ -115,7 +115,7 @@ fn snapshot() -> Snapshot {
         pos_y: -2.0,
         pos_z: 0.1,
         yaw: 0.5,
-        electricity: 87,
+        electricity: Some(87),
         ..RobotStatus::UNAVAILABLE
     };
     Snapshot {

@@ -125,14 +125,14 @@ fn status_1002_response() {
         (s.cur_odom, s.sum_odom, s.res, s.x0, s.y0),
         (0.0, 0.0, 0.0, 0.0, 0.0)
     );
-    assert_eq!(s.h, 1000);
-    assert_eq!(s.electricity, 50);
-    assert_eq!(s.location, Location::Localized);
-    assert_eq!(s.gait_state, GaitState::Walk);
-    assert_eq!(s.motor_state, MotorState::Normal);
-    assert_eq!(s.charge_state, ChargeState::NotCharging);
-    assert_eq!(s.control_mode, ControlMode::Manual);
-    assert_eq!(s.on_dock_state, OnDockState::OffDock);
+    assert_eq!(s.h, Some(1000));
+    assert_eq!(s.electricity, Some(50));
+    assert_eq!(s.location, Some(Location::Localized));
+    assert_eq!(s.gait_state, Some(GaitState::Walk));
+    assert_eq!(s.motor_state, Some(MotorState::Normal));
+    assert_eq!(s.charge_state, Some(ChargeState::NotCharging));
+    assert_eq!(s.control_mode, Some(ControlMode::Manual));
+    assert_eq!(s.on_dock_state, Some(OnDockState::OffDock));
     assert!(!s.is_unavailable(), "H and Electricity are not 0");
     assert_response_round_trip(&decoded);
 }
@@ -169,14 +169,14 @@ fn status_1002_from_a_real_robot_with_extra_items() {
     assert_eq!(s.yaw, 3.14159274);
     assert_eq!(s.sum_odom, 1234.5);
     assert_eq!(s.res, 0.05);
-    assert_eq!((s.x0, s.y0, s.h), (-10.5, -20.25, 800));
-    assert_eq!(s.electricity, 87);
-    assert_eq!(s.location, Location::Lost);
-    assert_eq!(s.gait_state, GaitState::AccumulatedFrameStairs45);
-    assert_eq!(s.motor_state, MotorState::OverTemperature);
-    assert_eq!(s.charge_state, ChargeState::Charging);
-    assert_eq!(s.control_mode, ControlMode::Automatic);
-    assert_eq!(s.on_dock_state, OnDockState::OnDock);
+    assert_eq!((s.x0, s.y0, s.h), (-10.5, -20.25, Some(800)));
+    assert_eq!(s.electricity, Some(87));
+    assert_eq!(s.location, Some(Location::Lost));
+    assert_eq!(s.gait_state, Some(GaitState::AccumulatedFrameStairs45));
+    assert_eq!(s.motor_state, Some(MotorState::OverTemperature));
+    assert_eq!(s.charge_state, Some(ChargeState::Charging));
+    assert_eq!(s.control_mode, Some(ControlMode::Automatic));
+    assert_eq!(s.on_dock_state, Some(OnDockState::OnDock));
     assert_response_round_trip(&decoded);
 }
 
@@ -257,18 +257,71 @@ fn status_all_zero_is_unavailable() {
     let moved = RobotStatus { pos_x: 0.1, ..s };
     assert!(!moved.is_unavailable());
     let charged = RobotStatus {
-        electricity: 1,
+        electricity: Some(1),
         ..s
     };
     assert!(!charged.is_unavailable());
 }
 
 #[test]
-fn status_missing_item_is_named() {
-    let xml = "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><MotionState>0</MotionState></Items></PatrolDevice>";
+fn status_with_motion_state_alone_reads_the_rest_as_not_reported() {
+    let xml = "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><MotionState>6</MotionState></Items></PatrolDevice>";
+    let Response::Status(s) = response(xml).message else {
+        panic!("not a status")
+    };
+    assert_eq!(s.motion_state, MotionState::SoftEmergencyStop);
+    let floats = [
+        s.pos_x, s.pos_y, s.pos_z, s.roll, s.pitch, s.yaw, s.speed, s.cur_odom, s.sum_odom, s.res,
+        s.x0, s.y0,
+    ];
+    assert!(floats.iter().all(|f| f.is_nan()), "{floats:?}");
+    assert_eq!((s.h, s.electricity), (None, None));
+    assert_eq!(
+        (s.location, s.gait_state, s.motor_state),
+        (None, None, None)
+    );
+    assert_eq!(
+        (s.charge_state, s.control_mode, s.on_dock_state),
+        (None, None, None)
+    );
+    assert_eq!(s.map_image(), None);
+    // One item is no all-zero pattern: a robot lying down is lying down.
+    let lying = RobotStatus {
+        motion_state: MotionState::LyingDown,
+        ..s
+    };
+    assert!(!lying.is_unavailable());
+}
+
+#[test]
+fn status_missing_items_keeps_the_others() {
+    let xml = "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items>\
+        <MotionState>4</MotionState><PosX>1.5</PosX><PosY>2.5</PosY><X0>-10</X0><Y0>-10</Y0>\
+        <H>400</H><Electricity>80</Electricity><GaitState>2</GaitState></Items></PatrolDevice>";
+    let Response::Status(s) = response(xml).message else {
+        panic!("not a status")
+    };
+    assert_eq!(
+        (s.motion_state, s.pos_x, s.pos_y),
+        (MotionState::Stepping, 1.5, 2.5)
+    );
+    assert_eq!((s.h, s.electricity), (Some(400), Some(80)));
+    assert_eq!((s.gait_state, s.location), (Some(GaitState::Slope), None));
+    assert!(s.res.is_nan() && s.yaw.is_nan());
+    // Without Res the map image is there, but no point maps to a pixel.
+    let image = s.map_image().expect("H is reported");
+    assert_eq!(image.to_pixel(s.pos_x, s.pos_y), None);
+    assert!(!s.is_unavailable());
+}
+
+#[test]
+fn status_without_motion_state_is_refused_naming_it() {
+    let xml = "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><PosX>1</PosX><Electricity>50</Electricity></Items></PatrolDevice>";
     assert_eq!(
         Response::decode(xml.as_bytes()),
-        Err(DecodeError::MissingItem(const { &ItemName::new("PosX") }))
+        Err(DecodeError::MissingItem(
+            const { &ItemName::new("MotionState") }
+        ))
     );
 }
 
@@ -1060,7 +1113,11 @@ fn answers_may_report_nan_and_infinity_and_requests_may_not() {
             (status.pos_z, status.roll),
             (f32::INFINITY, f32::NEG_INFINITY)
         );
-        assert_eq!((status.pitch, status.h), (-0.0034, 800), "the other items");
+        assert_eq!(
+            (status.pitch, status.h),
+            (-0.0034, Some(800)),
+            "the other items"
+        );
     }
     let decoded = response(&unknown_pose);
     let mut buf = [0u8; 4096];

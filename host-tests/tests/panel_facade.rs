@@ -192,7 +192,7 @@ fn gait_steps_on_from_the_fresh_status() {
     answer(
         &mut p,
         RobotStatus {
-            gait_state: GaitState::Slope,
+            gait_state: Some(GaitState::Slope),
             ..status()
         },
         0,

@@ -93,11 +93,14 @@ fn each_fault_lights_the_fault_led() {
             Fault::SoftEmergencyStop,
         ),
         (
-            |s| s.motor_state = MotorState::OverTemperature,
+            |s| s.motor_state = Some(MotorState::OverTemperature),
             Fault::MotorOverTemperature,
         ),
-        (|s| s.location = Location::Lost, Fault::LocalisationLost),
-        (|s| s.electricity = 20, Fault::BatteryLow),
+        (
+            |s| s.location = Some(Location::Lost),
+            Fault::LocalisationLost,
+        ),
+        (|s| s.electricity = Some(20), Fault::BatteryLow),
     ];
     for (change, expected) in cases {
         let mut s = status();
@@ -110,7 +113,7 @@ fn each_fault_lights_the_fault_led() {
 #[test]
 fn battery_threshold_is_20_percent() {
     let with = |electricity| RobotStatus {
-        electricity,
+        electricity: Some(electricity),
         ..status()
     };
     assert_eq!(fault_of(with(21)), Led::Off);
@@ -163,7 +166,7 @@ fn failed_command_blinks() {
     );
     // A robot fault is more than a failed command.
     let mut s = status();
-    s.location = Location::Lost;
+    s.location = Some(Location::Lost);
     assert_eq!(
         fault_led(LinkState::Connected, &view_with(s), true, at(100)),
         Led::On

@@ -305,9 +305,9 @@ fn view_keeps_the_latest_answers() {
     assert_eq!(v.status(at(0)), None);
     v.update(&Response::Status(status()), at(100));
     let mut newer = status();
-    newer.electricity = 79;
+    newer.electricity = Some(79);
     v.update(&Response::Status(newer), at(600));
-    assert_eq!(v.status(at(700)).map(|s| s.electricity), Some(79));
+    assert_eq!(v.status(at(700)).and_then(|s| s.electricity), Some(79));
     v.update(&Response::Battery(battery()), at(700));
     v.update(
         &Response::Perception(Perception {

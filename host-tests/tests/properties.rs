@@ -19,7 +19,7 @@
 
 use std::fmt::Debug;
 
-use proptest::array::{uniform4, uniform7, uniform8, uniform12};
+use proptest::array::{uniform4, uniform6, uniform8, uniform12};
 use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::sample::{Index, select};
@@ -139,14 +139,17 @@ fn timestamp() -> impl Strategy<Value = Timestamp> {
 // ---------------------------------------------------------------------------------------
 
 prop_compose! {
+    /// Any status a robot may send: floats may be `nan`, and every item but `MotionState`
+    /// may be left out (an absent float reads as NaN, which is also what `nan` reads as).
     fn robot_status()(
         f in uniform12(reading_f32()),
-        h in any_i32(),
-        electricity in any_i32(),
-        c in uniform7(raw_code()),
+        h in proptest::option::of(any_i32()),
+        electricity in proptest::option::of(any_i32()),
+        motion_state in raw_code(),
+        c in uniform6(proptest::option::of(raw_code())),
     ) -> RobotStatus {
         RobotStatus {
-            motion_state: MotionState::from_raw(c[0]),
+            motion_state: MotionState::from_raw(motion_state),
             pos_x: f[0],
             pos_y: f[1],
             pos_z: f[2],
@@ -161,12 +164,12 @@ prop_compose! {
             y0: f[11],
             h,
             electricity,
-            location: Location::from_raw(c[1]),
-            gait_state: GaitState::from_raw(c[2]),
-            motor_state: MotorState::from_raw(c[3]),
-            charge_state: ChargeState::from_raw(c[4]),
-            control_mode: ControlMode::from_raw(c[5]),
-            on_dock_state: OnDockState::from_raw(c[6]),
+            location: c[0].map(Location::from_raw),
+            gait_state: c[1].map(GaitState::from_raw),
+            motor_state: c[2].map(MotorState::from_raw),
+            charge_state: c[3].map(ChargeState::from_raw),
+            control_mode: c[4].map(ControlMode::from_raw),
+            on_dock_state: c[5].map(OnDockState::from_raw),
         }
     }
 }

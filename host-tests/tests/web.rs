@@ -62,8 +62,8 @@ fn status() -> RobotStatus {
         pos_z: 0.1,
         yaw: 0.5,
         speed: 0.25,
-        electricity: 87,
-        gait_state: GaitState::Slope,
+        electricity: Some(87),
+        gait_state: Some(GaitState::Slope),
         ..RobotStatus::UNAVAILABLE
     }
 }
@@ -400,7 +400,7 @@ fn faults_the_all_zero_status_and_a_failed_command_are_told() {
     let mut view = RobotView::new(&Config::default());
     let faulty = RobotStatus {
         motion_state: MotionState::Fallen,
-        electricity: 10,
+        electricity: Some(10),
         ..status()
     };
     view.update(&Response::Status(faulty), T0);
@@ -441,14 +441,14 @@ fn largest(code: i32) -> Snapshot {
         res: f,
         x0: f,
         y0: f,
-        h: i32::MIN,
-        electricity: i32::MIN,
-        location: Location::from_raw(code),
-        gait_state: GaitState::from_raw(code),
-        motor_state: MotorState::from_raw(code),
-        charge_state: ChargeState::from_raw(code),
-        control_mode: ControlMode::from_raw(code),
-        on_dock_state: OnDockState::from_raw(code),
+        h: Some(i32::MIN),
+        electricity: Some(i32::MIN),
+        location: Some(Location::from_raw(code)),
+        gait_state: Some(GaitState::from_raw(code)),
+        motor_state: Some(MotorState::from_raw(code)),
+        charge_state: Some(ChargeState::from_raw(code)),
+        control_mode: Some(ControlMode::from_raw(code)),
+        on_dock_state: Some(OnDockState::from_raw(code)),
     };
     let battery = Battery {
         voltage: i32::MIN,
@@ -478,9 +478,9 @@ fn largest(code: i32) -> Snapshot {
     let mut view = RobotView::new(&Config::default());
     let faulty = RobotStatus {
         motion_state: MotionState::Fallen,
-        motor_state: MotorState::OverTemperature,
-        location: Location::Lost,
-        electricity: 0,
+        motor_state: Some(MotorState::OverTemperature),
+        location: Some(Location::Lost),
+        electricity: Some(0),
         ..self::status()
     };
     view.update(&Response::Status(faulty), T0);

@@ -249,8 +249,12 @@ fn status(
     let age = |at: Instant| now.saturating_duration_since(at).as_millis();
     match (&s.status, &s.battery) {
         (Some(status), battery) if !status.value.is_unavailable() => {
-            let level = battery.map_or(status.value.electricity, |b| b.value.battery_level);
-            let _ = writeln!(answer, "battery    {level} %");
+            // The battery answer's level, else the status's; a robot may report neither.
+            let level = battery.map_or(status.value.electricity, |b| Some(b.value.battery_level));
+            let _ = match level {
+                Some(level) => writeln!(answer, "battery    {level} %"),
+                None => writeln!(answer, "battery    not reported"),
+            };
             let _ = writeln!(
                 answer,
                 "motion     {} ({} ms ago)",

@@ -171,11 +171,20 @@ pub fn faults(view: &RobotView, now: Instant) -> impl Iterator<Item = Fault> {
             Fault::SoftEmergencyStop,
         ),
         from_status(
-            |s| s.motor_state == MotorState::OverTemperature,
+            |s| s.motor_state == Some(MotorState::OverTemperature),
             Fault::MotorOverTemperature,
         ),
-        from_status(|s| s.location == Location::Lost, Fault::LocalisationLost),
-        from_status(|s| s.electricity <= LOW_BATTERY_PERCENT, Fault::BatteryLow),
+        from_status(
+            |s| s.location == Some(Location::Lost),
+            Fault::LocalisationLost,
+        ),
+        from_status(
+            |s| {
+                s.electricity
+                    .is_some_and(|level| level <= LOW_BATTERY_PERCENT)
+            },
+            Fault::BatteryLow,
+        ),
         protection,
     ]
     .into_iter()

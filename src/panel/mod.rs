@@ -169,7 +169,7 @@ impl Panel {
 
     /// A debounced press or release.
     pub fn button(&mut self, event: ButtonEvent) {
-        let gait = self.view.status(event.at).map(|s| s.gait_state);
+        let gait = self.view.status(event.at).and_then(|s| s.gait_state);
         self.control.button(event, gait);
         self.follow_navigation(event.at);
     }

@@ -121,14 +121,14 @@ pub fn status() -> RobotStatus {
         res: 0.05,
         x0: -10.0,
         y0: -10.0,
-        h: 400,
-        electricity: 80,
-        location: Location::Localized,
-        gait_state: GaitState::Walk,
-        motor_state: MotorState::Normal,
-        charge_state: ChargeState::NotCharging,
-        control_mode: ControlMode::Manual,
-        on_dock_state: OnDockState::OffDock,
+        h: Some(400),
+        electricity: Some(80),
+        location: Some(Location::Localized),
+        gait_state: Some(GaitState::Walk),
+        motor_state: Some(MotorState::Normal),
+        charge_state: Some(ChargeState::NotCharging),
+        control_mode: Some(ControlMode::Manual),
+        on_dock_state: Some(OnDockState::OffDock),
     }
 }
 

@@ -9,49 +9,55 @@ use crate::proto::codes::{
 
 item_set! {
     /// Type 1002 answer: the robot's real-time basic status.
+    ///
+    /// Only `MotionState` is required: the panel cannot confirm an e-stop without it. A
+    /// robot that leaves out any other item (a robot_server of another version, or one that
+    /// lacks the reading) still has the rest read: an absent float is NaN, the value a robot
+    /// writes (`nan`) for a reading it does not have, and an absent integer or code is
+    /// `None`. So one missing map item never costs the panel its e-stop confirmation.
     pub struct RobotStatus {
         /// Motion state.
         pub motion_state: MotionState = "MotionState";
         /// Position in the map frame, m.
-        pub pos_x: f32 = "PosX";
+        pub pos_x: f32 = "PosX", default f32::NAN;
         /// Position in the map frame, m.
-        pub pos_y: f32 = "PosY";
+        pub pos_y: f32 = "PosY", default f32::NAN;
         /// Position in the map frame, m.
-        pub pos_z: f32 = "PosZ";
+        pub pos_z: f32 = "PosZ", default f32::NAN;
         /// Attitude in the map frame, rad.
-        pub roll: f32 = "Roll";
+        pub roll: f32 = "Roll", default f32::NAN;
         /// Attitude in the map frame, rad.
-        pub pitch: f32 = "Pitch";
+        pub pitch: f32 = "Pitch", default f32::NAN;
         /// Attitude in the map frame, rad.
-        pub yaw: f32 = "Yaw";
+        pub yaw: f32 = "Yaw", default f32::NAN;
         /// Forward speed, m/s.
-        pub speed: f32 = "Speed";
+        pub speed: f32 = "Speed", default f32::NAN;
         /// Odometry since power-on, km.
-        pub cur_odom: f32 = "CurOdom";
+        pub cur_odom: f32 = "CurOdom", default f32::NAN;
         /// Total odometry, km.
-        pub sum_odom: f32 = "SumOdom";
+        pub sum_odom: f32 = "SumOdom", default f32::NAN;
         /// Metres per map-image pixel.
-        pub res: f32 = "Res";
+        pub res: f32 = "Res", default f32::NAN;
         /// Map-frame x of the map image's bottom-left corner, m.
-        pub x0: f32 = "X0";
+        pub x0: f32 = "X0", default f32::NAN;
         /// Map-frame y of the map image's bottom-left corner, m.
-        pub y0: f32 = "Y0";
+        pub y0: f32 = "Y0", default f32::NAN;
         /// Map image height, px.
-        pub h: i32 = "H";
+        pub h: Option<i32> = "H", default None;
         /// Battery charge, %.
-        pub electricity: i32 = "Electricity";
+        pub electricity: Option<i32> = "Electricity", default None;
         /// Localisation state.
-        pub location: Location = "Location";
+        pub location: Option<Location> = "Location", default None;
         /// Gait (the 1002 numbering).
-        pub gait_state: GaitState = "GaitState";
+        pub gait_state: Option<GaitState> = "GaitState", default None;
         /// Motor state.
-        pub motor_state: MotorState = "MotorState";
+        pub motor_state: Option<MotorState> = "MotorState", default None;
         /// Charging state.
-        pub charge_state: ChargeState = "ChargeState";
+        pub charge_state: Option<ChargeState> = "ChargeState", default None;
         /// Manual or automatic control.
-        pub control_mode: ControlMode = "ControlMode";
+        pub control_mode: Option<ControlMode> = "ControlMode", default None;
         /// Whether the robot lies on its dock.
-        pub on_dock_state: OnDockState = "OnDockState";
+        pub on_dock_state: Option<OnDockState> = "OnDockState", default None;
     }
 }
 
@@ -72,18 +78,20 @@ impl RobotStatus {
         res: 0.0,
         x0: 0.0,
         y0: 0.0,
-        h: 0,
-        electricity: 0,
-        location: Location::Localized,
-        gait_state: GaitState::Walk,
-        motor_state: MotorState::Normal,
-        charge_state: ChargeState::NotCharging,
-        control_mode: ControlMode::Manual,
-        on_dock_state: OnDockState::OffDock,
+        h: Some(0),
+        electricity: Some(0),
+        location: Some(Location::Localized),
+        gait_state: Some(GaitState::Walk),
+        motor_state: Some(MotorState::Normal),
+        charge_state: Some(ChargeState::NotCharging),
+        control_mode: Some(ControlMode::Manual),
+        on_dock_state: Some(OnDockState::OffDock),
     };
 
     /// Whether every item is 0, which the robot sends when it cannot read its status or
-    /// the navigation program is not running: not a robot lying at the origin.
+    /// the navigation program is not running: not a robot lying at the origin. Absent items
+    /// (and floats the robot wrote as `nan`) say nothing either way; a status that reports
+    /// nothing beside `MotionState` does not show the pattern, so its `MotionState` counts.
     pub fn is_unavailable(&self) -> bool {
         let floats = [
             self.pos_x,
@@ -99,28 +107,30 @@ impl RobotStatus {
             self.x0,
             self.y0,
         ];
-        let codes = [
-            self.motion_state.raw(),
+        let integers = [
             self.h,
             self.electricity,
-            self.location.raw(),
-            self.gait_state.raw(),
-            self.motor_state.raw(),
-            self.charge_state.raw(),
-            self.control_mode.raw(),
-            self.on_dock_state.raw(),
+            self.location.map(Location::raw),
+            self.gait_state.map(GaitState::raw),
+            self.motor_state.map(MotorState::raw),
+            self.charge_state.map(ChargeState::raw),
+            self.control_mode.map(ControlMode::raw),
+            self.on_dock_state.map(OnDockState::raw),
         ];
-        floats.iter().all(|&f| f == 0.0) && codes.iter().all(|&c| c == 0)
+        let floats = floats.into_iter().filter(|f| !f.is_nan()).map(|f| f == 0.0);
+        let mut reported = floats.chain(integers.into_iter().flatten().map(|i| i == 0));
+        let first = reported.next();
+        self.motion_state.raw() == 0 && first == Some(true) && reported.all(|zero| zero)
     }
 
-    /// The map image geometry this status reports.
-    pub fn map_image(&self) -> MapImage {
-        MapImage {
+    /// The map image geometry this status reports; `None` without the image height.
+    pub fn map_image(&self) -> Option<MapImage> {
+        Some(MapImage {
             res: self.res,
             x0: self.x0,
             y0: self.y0,
-            h: self.h,
-        }
+            h: self.h?,
+        })
     }
 }
 

@@ -96,6 +96,9 @@ pub struct Faults {
     /// Report the pose as unknown: status answers carry `nan` for each of
     /// [`UNKNOWN_POSE_ITEMS`], as a robot's C library prints a float it has no value for.
     pub unknown_pose: bool,
+    /// Leave every item but [`SPARSE_STATUS_ITEM`] out of status answers: a robot that
+    /// reports less than the document lists.
+    pub sparse_status: bool,
     /// The XML declaration of answers.
     pub declaration: Declaration,
 }
@@ -178,12 +181,20 @@ impl FromStr for Declaration {
 /// The items [`Faults::unknown_pose`] writes as `nan`: the robot's position and attitude.
 pub const UNKNOWN_POSE_ITEMS: [&str; 6] = ["PosX", "PosY", "PosZ", "Roll", "Pitch", "Yaw"];
 
+/// The one item [`Faults::sparse_status`] keeps in status answers: the panel cannot
+/// confirm an e-stop without it.
+pub const SPARSE_STATUS_ITEM: &str = "MotionState";
+
 const SINGLE_DECLARATION: &[u8] = b"<?xml version='1.0' encoding='utf-8'?>";
 
-/// Alters an encoded XML body as the faults ask: extra items, an unknown pose, another
-/// Type, another declaration. Without those faults the body comes back unchanged.
+/// Alters an encoded XML body as the faults ask: fewer items, extra items, an unknown
+/// pose, another Type, another declaration. Without those faults the body comes back
+/// unchanged.
 pub fn alter_body(body: &[u8], faults: &Faults) -> Vec<u8> {
     let mut body = body.to_vec();
+    if faults.sparse_status && find(&body, b"<Type>1002</Type>").is_some() {
+        body = keep_one_item(&body, SPARSE_STATUS_ITEM);
+    }
     if faults.unknown_items {
         body = insert_unknown_items(&body);
     }
@@ -300,6 +311,27 @@ fn insert_unknown_items(body: &[u8]) -> Vec<u8> {
     out
 }
 
+/// Leaves out every item line of the first `<Items>` block but `name`'s.
+fn keep_one_item(body: &[u8], name: &str) -> Vec<u8> {
+    let (Some(open), Some(close)) = (find(body, b"<Items>"), find(body, b"</Items>")) else {
+        return body.to_vec();
+    };
+    let start = open + b"<Items>".len();
+    let Some(content) = body.get(start..close) else {
+        return body.to_vec();
+    };
+    let kept = format!("<{name}>");
+    let mut out = body.get(..start).unwrap_or_default().to_vec();
+    // The encoder writes one item per line; the last piece is the indentation of </Items>.
+    for piece in content.split_inclusive(|&b| b == b'\n') {
+        if !piece.contains(&b'<') || find(piece, kept.as_bytes()).is_some() {
+            out.extend_from_slice(piece);
+        }
+    }
+    out.extend_from_slice(body.get(close..).unwrap_or_default());
+    out
+}
+
 /// Position of the first occurrence of `needle` in `haystack`.
 fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
     haystack.windows(needle.len()).position(|w| w == needle)
@@ -308,7 +340,7 @@ fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use x30_panel::proto::codes::CommandResult;
+    use x30_panel::proto::codes::{CommandResult, MotionState};
     use x30_panel::proto::message::{Battery, CommandAck, Response, RobotStatus};
     use x30_panel::proto::time::Timestamp;
 
@@ -414,7 +446,7 @@ mod tests {
         let status = RobotStatus {
             pos_x: 1.5,
             roll: 0.25,
-            electricity: 87,
+            electricity: Some(87),
             ..RobotStatus::UNAVAILABLE
         };
         let faults = Faults {
@@ -433,9 +465,42 @@ mod tests {
             panic!("{xml}");
         };
         assert!(read.pos_x.is_nan() && read.roll.is_nan() && read.yaw.is_nan());
-        assert_eq!(read.electricity, 87);
+        assert_eq!(read.electricity, Some(87));
         // Answers without a pose are left as they are.
         assert_eq!(alter_body(&encode(&ack()), &faults), encode(&ack()));
+    }
+
+    #[test]
+    fn sparse_status_keeps_motion_state_alone_and_the_panel_reads_it() {
+        let status = RobotStatus {
+            motion_state: MotionState::SoftEmergencyStop,
+            electricity: Some(87),
+            ..RobotStatus::UNAVAILABLE
+        };
+        let faults = Faults {
+            sparse_status: true,
+            unknown_items: true,
+            ..Faults::default()
+        };
+        let altered = alter_body(&encode(&Response::Status(status)), &faults);
+        let xml = text(&altered);
+        assert!(xml.contains("    <MotionState>6</MotionState>\n"), "{xml}");
+        assert!(
+            !xml.contains("Electricity") && !xml.contains("<PosX>"),
+            "{xml}"
+        );
+        assert!(xml.contains("<RTKState>"), "the extra items stay: {xml}");
+        let Response::Status(read) = Response::decode(&altered).unwrap().message else {
+            panic!("{xml}");
+        };
+        assert_eq!(read.motion_state, MotionState::SoftEmergencyStop);
+        assert_eq!((read.electricity, read.gait_state), (None, None));
+        // Other answers are left as they are.
+        let only_sparse = Faults {
+            sparse_status: true,
+            ..Faults::default()
+        };
+        assert_eq!(alter_body(&encode(&ack()), &only_sparse), encode(&ack()));
     }
 
     #[test]

@@ -53,7 +53,7 @@
 //!         break Response::decode(frame.asdu).expect("a valid answer").message;
 //!     }
 //! };
-//! assert!(matches!(answer, Response::Status(s) if s.electricity == 42));
+//! assert!(matches!(answer, Response::Status(s) if s.electricity == Some(42)));
 //!
 //! // Make answers slow from now on, and see what clients sent.
 //! sim.set_faults(x30_sim::Faults {

@@ -68,6 +68,9 @@ struct Cli {
     /// answers.
     #[arg(long)]
     unknown_pose: bool,
+    /// Leave every item but MotionState out of status answers.
+    #[arg(long)]
+    sparse_status: bool,
     /// XML declaration of answers.
     #[arg(long, value_enum, default_value_t = DeclarationArg::Double)]
     declaration: DeclarationArg,
@@ -151,6 +154,7 @@ impl Cli {
                 unknown_type: self.unknown_type,
                 unknown_items: self.unknown_items,
                 unknown_pose: self.unknown_pose,
+                sparse_status: self.sparse_status,
                 declaration: self.declaration.into(),
             },
             log_file: self.log.clone(),

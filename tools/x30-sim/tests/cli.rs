@@ -58,7 +58,7 @@ fn prints_its_address_and_serves() {
     );
     assert!(matches!(
         Response::decode(&body).unwrap().message,
-        Response::Status(s) if s.electricity == 90
+        Response::Status(s) if s.electricity == Some(90)
     ));
 }
 

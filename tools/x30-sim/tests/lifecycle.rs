@@ -51,5 +51,5 @@ fn drop_stops_everything_promptly() {
     }
     // The port is free again at once for a new simulator on port 0.
     let again = start(1.0);
-    assert_eq!(Client::connect(again.addr()).status().electricity, 90);
+    assert_eq!(Client::connect(again.addr()).status().electricity, Some(90));
 }

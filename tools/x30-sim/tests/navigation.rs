@@ -249,8 +249,8 @@ fn charging_point_ends_lying_on_the_dock() {
     );
     let status = client.status();
     assert_eq!(status.motion_state, MotionState::LyingDown);
-    assert_eq!(status.charge_state, ChargeState::Charging);
-    assert_eq!(status.on_dock_state, OnDockState::OnDock);
+    assert_eq!(status.charge_state, Some(ChargeState::Charging));
+    assert_eq!(status.on_dock_state, Some(OnDockState::OnDock));
 }
 
 #[test]
@@ -419,7 +419,7 @@ fn drop_connections_stops_the_task_and_closes_clients() {
     );
     // New connections are served as before.
     let mut again = Client::connect(sim.addr());
-    assert_eq!(again.status().electricity, 90);
+    assert_eq!(again.status().electricity, Some(90));
 }
 
 #[test]

@@ -40,11 +40,14 @@ fn starting_status() {
     let mut client = Client::connect(sim.addr());
     let s = client.status();
     assert_eq!(s.motion_state, MotionState::ForceControlStand);
-    assert_eq!(s.electricity, 90);
-    assert_eq!(s.location, Location::Localized);
+    assert_eq!(s.electricity, Some(90));
+    assert_eq!(s.location, Some(Location::Localized));
     assert_eq!((s.pos_x, s.pos_y, s.pos_z, s.yaw), (0.0, 0.0, 0.0, 0.0));
-    assert_eq!((s.res, s.x0, s.y0, s.h), (0.05, -10.0, -10.0, 400));
-    assert_eq!(s.map_image().to_pixel(0.0, 0.0), Some((200, 200)));
+    assert_eq!((s.res, s.x0, s.y0, s.h), (0.05, -10.0, -10.0, Some(400)));
+    assert_eq!(
+        s.map_image().and_then(|m| m.to_pixel(0.0, 0.0)),
+        Some((200, 200))
+    );
 }
 
 /// At scale 20 the idle drain (0.05 %/s) is 1 % per real second; 2001 agrees with 1002 and
@@ -53,7 +56,10 @@ fn starting_status() {
 fn battery_drains_and_2001_agrees_with_1002() {
     let sim = start(20.0);
     let mut client = Client::connect(sim.addr());
-    assert!(wait_until(ms(10_000), || client.status().electricity <= 88));
+    assert!(wait_until(ms(10_000), || client
+        .status()
+        .electricity
+        .is_some_and(|e| e <= 88)));
     let mut agreed = false;
     // A reading can straddle a change of the rounded level; a few tries settle it.
     for _ in 0..5 {
@@ -63,7 +69,7 @@ fn battery_drains_and_2001_agrees_with_1002() {
         if before != after {
             continue;
         }
-        assert_eq!(b.battery_level, before);
+        assert_eq!(Some(b.battery_level), before);
         let from_capacity = f64::from(b.remaining_capacity) * 100.0 / f64::from(b.nominal_capacity);
         assert!(
             // Both are rounded from the same charge, each to its own unit.
@@ -89,11 +95,14 @@ fn battery_charges_on_the_dock() {
         r.set_on_dock(true);
     });
     let s = client.status();
-    assert_eq!(s.charge_state, ChargeState::Charging);
-    assert_eq!(s.on_dock_state, OnDockState::OnDock);
+    assert_eq!(s.charge_state, Some(ChargeState::Charging));
+    assert_eq!(s.on_dock_state, Some(OnDockState::OnDock));
     assert_eq!(s.motion_state, MotionState::LyingDown);
     assert!(battery(&mut client).current < 0, "negative while charging");
-    assert!(wait_until(ms(10_000), || client.status().electricity >= 53));
+    assert!(wait_until(ms(10_000), || client
+        .status()
+        .electricity
+        .is_some_and(|e| e >= 53)));
 }
 
 #[test]
@@ -108,9 +117,12 @@ fn motors_warm_with_motion_and_report_over_temperature() {
     client.motion(MotionCommand::ZeroVelocity);
     let warm = temperatures(&mut client).max();
     assert!(warm > cold + 3.0, "{cold} → {warm}");
-    assert_eq!(client.status().motor_state, MotorState::Normal);
+    assert_eq!(client.status().motor_state, Some(MotorState::Normal));
     sim.robot(|r| r.set_motor_temperature(7, 85.0));
-    assert_eq!(client.status().motor_state, MotorState::OverTemperature);
+    assert_eq!(
+        client.status().motor_state,
+        Some(MotorState::OverTemperature)
+    );
     assert!(temperatures(&mut client).left_back_hip > 80.0);
 }
 
@@ -159,7 +171,7 @@ fn relocalize_sets_the_pose() {
     let sim = start(1.0);
     let mut client = Client::connect(sim.addr());
     sim.robot(|r| r.set_localized(false));
-    assert_eq!(client.status().location, Location::Lost);
+    assert_eq!(client.status().location, Some(Location::Lost));
     let pose = Relocalize {
         pos_x: 2.5,
         pos_y: -1.25,
@@ -173,10 +185,10 @@ fn relocalize_sets_the_pose() {
     assert_eq!(relocalize(&mut client), LocalizationResult::Localized);
     let s = client.status();
     assert_eq!((s.pos_x, s.pos_y, s.yaw), (2.5, -1.25, 1.5));
-    assert_eq!(s.location, Location::Localized);
+    assert_eq!(s.location, Some(Location::Localized));
     sim.robot(|r| r.set_localization_broken(true));
     assert_eq!(relocalize(&mut client), LocalizationResult::Abnormal);
-    assert_eq!(client.status().location, Location::Lost);
+    assert_eq!(client.status().location, Some(Location::Lost));
 }
 
 #[test]
@@ -189,7 +201,7 @@ fn many_clients_at_once() {
                 let mut client = Client::connect(addr);
                 for _ in 0..25 {
                     // `request` checks that each answer carries its request's ID.
-                    assert_eq!(client.status().electricity, 90);
+                    assert_eq!(client.status().electricity, Some(90));
                     assert!(matches!(
                         client.request(&Request::NavStatus),
                         Response::NavStatus(_)

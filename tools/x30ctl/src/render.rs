@@ -61,6 +61,19 @@ pub fn code_text<T: Code>(value: T) -> String {
     format!("{} ({})", value.description(), value.raw())
 }
 
+/// What an item the robot left out of its answer reads.
+pub const NOT_REPORTED: &str = "not reported";
+
+/// A coded item the robot may leave out: [`code_text`], or [`NOT_REPORTED`].
+pub fn reported_code_text<T: Code>(value: Option<T>) -> String {
+    value.map_or_else(|| NOT_REPORTED.to_owned(), code_text)
+}
+
+/// An integer item the robot may leave out, with its unit, or [`NOT_REPORTED`].
+pub fn reported_int(value: Option<i32>, unit: &str) -> String {
+    value.map_or_else(|| NOT_REPORTED.to_owned(), |v| format!("{v}{unit}"))
+}
+
 // ---------------------------------------------------------------------------------------
 // Answers
 // ---------------------------------------------------------------------------------------
@@ -170,7 +183,7 @@ fn map_pixel(s: &RobotStatus) -> Option<(i32, i32)> {
     if s.is_unavailable() {
         return None;
     }
-    s.map_image().to_pixel(s.pos_x, s.pos_y)
+    s.map_image()?.to_pixel(s.pos_x, s.pos_y)
 }
 
 /// A reading the robot reports, with its unit: C's `nan` or `inf`, which a robot prints for
@@ -274,18 +287,21 @@ fn status_text(s: &RobotStatus) -> String {
                 reading(s.sum_odom, "km")
             ),
         )
-        .row("battery", format_args!("{} %", s.electricity))
-        .row("gait", code_text(s.gait_state))
-        .row("localisation", code_text(s.location))
-        .row("motors", code_text(s.motor_state))
-        .row("charging", code_text(s.charge_state))
-        .row("dock", code_text(s.on_dock_state))
-        .row("control mode", code_text(s.control_mode))
+        .row("battery", reported_int(s.electricity, " %"))
+        .row("gait", reported_code_text(s.gait_state))
+        .row("localisation", reported_code_text(s.location))
+        .row("motors", reported_code_text(s.motor_state))
+        .row("charging", reported_code_text(s.charge_state))
+        .row("dock", reported_code_text(s.on_dock_state))
+        .row("control mode", reported_code_text(s.control_mode))
         .row(
             "map image",
             format_args!(
-                "{} m/px, bottom-left corner at x {} m, y {} m, {} px high",
-                s.res, s.x0, s.y0, s.h
+                "{} m/px, bottom-left corner at x {} m, y {} m, {} high",
+                s.res,
+                s.x0,
+                s.y0,
+                reported_int(s.h, " px")
             ),
         )
         .finish()
@@ -683,14 +699,14 @@ mod tests {
             res: 0.05,
             x0: 0.0,
             y0: 0.0,
-            h: 100,
-            electricity: 80,
-            location: Location::Localized,
-            gait_state: GaitState::Walk,
-            motor_state: MotorState::Normal,
-            charge_state: ChargeState::NotCharging,
-            control_mode: ControlMode::Manual,
-            on_dock_state: OnDockState::OffDock,
+            h: Some(100),
+            electricity: Some(80),
+            location: Some(Location::Localized),
+            gait_state: Some(GaitState::Walk),
+            motor_state: Some(MotorState::Normal),
+            charge_state: Some(ChargeState::NotCharging),
+            control_mode: Some(ControlMode::Manual),
+            on_dock_state: Some(OnDockState::OffDock),
         };
         let text = response_text(&Response::Status(status));
         assert!(text.contains("x -0.00023393621 m"), "{text}");
@@ -702,8 +718,8 @@ mod tests {
             pos_x: 0.0,
             pos_y: 0.0,
             res: 0.0,
-            h: 0,
-            electricity: 0,
+            h: Some(0),
+            electricity: Some(0),
             ..status
         };
         assert_eq!(response_text(&Response::Status(status)), STATUS_UNAVAILABLE);

@@ -199,6 +199,26 @@ fn an_unknown_pose_is_shown_and_the_rest_of_the_status_read() {
 }
 
 #[test]
+fn a_status_with_motion_state_alone_is_shown_with_the_rest_not_reported() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        sparse_status: true,
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["status"])
+        .expect_code(0)
+        .stdout_has("motion state   force-control stand (3)")
+        .stdout_has("x unknown, y unknown, z unknown")
+        .stdout_has("battery        not reported")
+        .stdout_has("gait           not reported");
+    let run = x30ctl(&sim, &["status", "--json"]);
+    let status = &run.expect_code(0).json_lines()[0];
+    assert!(status["electricity"].is_null(), "{status}");
+    assert!(status["gait_state"].is_null(), "{status}");
+    assert_eq!(status["motion_state"]["code"], 3, "{status}");
+}
+
+#[test]
 fn every_declaration_style_decodes() {
     let sim = sim(1.0);
     for declaration in [Declaration::Single, Declaration::None, Declaration::Double] {

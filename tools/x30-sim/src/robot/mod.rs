@@ -764,30 +764,30 @@ impl Robot {
             res: MAP.res,
             x0: MAP.x0,
             y0: MAP.y0,
-            h: MAP.h,
-            electricity: self.power.percent(),
-            location: if self.localized {
+            h: Some(MAP.h),
+            electricity: Some(self.power.percent()),
+            location: Some(if self.localized {
                 Location::Localized
             } else {
                 Location::Lost
-            },
-            gait_state: self.gait,
-            motor_state: if self.motors.over_temperature() {
+            }),
+            gait_state: Some(self.gait),
+            motor_state: Some(if self.motors.over_temperature() {
                 MotorState::OverTemperature
             } else {
                 MotorState::Normal
-            },
-            charge_state: if self.is_charging() {
+            }),
+            charge_state: Some(if self.is_charging() {
                 ChargeState::Charging
             } else {
                 ChargeState::NotCharging
-            },
-            control_mode: self.control_mode,
-            on_dock_state: if self.on_dock {
+            }),
+            control_mode: Some(self.control_mode),
+            on_dock_state: Some(if self.on_dock {
                 OnDockState::OnDock
             } else {
                 OnDockState::OffDock
-            },
+            }),
         }
     }
 

@@ -59,10 +59,10 @@ fn starts_standing_localised_at_the_origin() {
     let s = robot.status();
     assert_eq!(s.motion_state, MotionState::ForceControlStand);
     assert_eq!((s.pos_x, s.pos_y, s.yaw), (0.0, 0.0, 0.0));
-    assert_eq!(s.electricity, 90);
-    assert_eq!(s.location, Location::Localized);
-    assert_eq!(s.map_image(), MAP);
-    assert_eq!(s.gait_state, GaitState::Walk);
+    assert_eq!(s.electricity, Some(90));
+    assert_eq!(s.location, Some(Location::Localized));
+    assert_eq!(s.map_image(), Some(MAP));
+    assert_eq!(s.gait_state, Some(GaitState::Walk));
     assert!(!s.is_unavailable());
     assert_eq!(robot.nav_status().value, 0);
     assert_eq!(robot.nav_status().status, NavTaskStatus::Finished);
@@ -219,7 +219,7 @@ fn gait_switch_uses_the_status_numbering() {
     ] {
         let command = MotionCommand::SwitchGait(gait);
         assert_eq!(motion(&mut robot, command, ms(0)), CommandResult::Success);
-        assert_eq!(robot.status().gait_state, state);
+        assert_eq!(robot.status().gait_state, Some(state));
     }
     match answer(robot.handle(
         &Request::Motion(MotionCommand::SwitchGait(MotionGait::PerceptionStairs)),
@@ -236,7 +236,7 @@ fn a_task_ends_after_distance_over_speed() {
     let mut robot = Robot::new(10.0);
     let reply = robot.handle(&task(&[point(5, 3.0, 4.0, PointInfo::Task)]), A, ms(100));
     assert_eq!(reply, Reply::Later);
-    assert_eq!(robot.status().control_mode, ControlMode::Automatic);
+    assert_eq!(robot.status().control_mode, Some(ControlMode::Automatic));
     // 5 m at 0.5 m/s is 10 s simulated, 1 s real at scale 10.
     robot.advance(ms(600));
     let pose = robot.pose();
@@ -401,8 +401,8 @@ fn a_charging_point_ends_on_the_dock() {
     assert_eq!(robot.take_ended().len(), 1);
     let s = robot.status();
     assert_eq!(s.motion_state, MotionState::LyingDown);
-    assert_eq!(s.charge_state, ChargeState::Charging);
-    assert_eq!(s.on_dock_state, OnDockState::OnDock);
+    assert_eq!(s.charge_state, Some(ChargeState::Charging));
+    assert_eq!(s.on_dock_state, Some(OnDockState::OnDock));
     let before = robot.battery_level();
     robot.advance(ms(5000));
     assert!(robot.battery_level() > before);
@@ -413,7 +413,7 @@ fn a_charging_point_ends_on_the_dock() {
         A,
         ms(5000),
     );
-    assert_eq!(robot.status().on_dock_state, OnDockState::OffDock);
+    assert_eq!(robot.status().on_dock_state, Some(OnDockState::OffDock));
 }
 
 #[test]
@@ -600,7 +600,7 @@ fn relocalisation() {
     let s = robot.status();
     assert_eq!(
         (s.pos_x, s.pos_y, s.location),
-        (1.5, -2.0, Location::Localized)
+        (1.5, -2.0, Some(Location::Localized))
     );
     assert!((f64::from(s.yaw) - (7.0 - std::f64::consts::TAU)).abs() < 1e-6);
     robot.set_localization_broken(true);
@@ -608,7 +608,7 @@ fn relocalisation() {
         Response::Relocalize(ack) => assert_eq!(ack.result, LocalizationResult::Abnormal),
         other => panic!("{other:?}"),
     }
-    assert_eq!(robot.status().location, Location::Lost);
+    assert_eq!(robot.status().location, Some(Location::Lost));
 }
 
 #[test]
@@ -646,9 +646,15 @@ fn battery_drains_and_agrees_with_status() {
     let mut robot = Robot::new(1.0);
     robot.advance(Duration::from_secs(20));
     assert!((robot.battery_level() - 89.0).abs() < 1e-9);
-    assert_eq!(robot.battery().battery_level, robot.status().electricity);
+    assert_eq!(
+        Some(robot.battery().battery_level),
+        robot.status().electricity
+    );
     robot.set_motor_temperatures(90.0);
-    assert_eq!(robot.status().motor_state, MotorState::OverTemperature);
+    assert_eq!(
+        robot.status().motor_state,
+        Some(MotorState::OverTemperature)
+    );
     assert_eq!(robot.motor_temperatures().max(), 90.0);
 }
 

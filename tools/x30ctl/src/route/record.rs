@@ -23,7 +23,7 @@ use crate::Ctx;
 use crate::cli::RouteRecordArgs;
 use crate::conn::Connection;
 use crate::error::{Error, io_text};
-use crate::render::{self, code_text, emit, note, warn};
+use crate::render::{self, emit, note, reported_code_text, warn};
 
 /// How often the live pose is refreshed on a terminal.
 const LIVE_POLL: Duration = Duration::from_millis(500);
@@ -169,9 +169,9 @@ fn pose(ctx: &Ctx, conn: &mut Option<Connection>) -> Result<RobotStatus, String>
     })?;
     match answer.response {
         Response::Status(s) if s.is_unavailable() => Err(render::STATUS_UNAVAILABLE.to_owned()),
-        Response::Status(s) if s.location != Location::Localized => Err(format!(
+        Response::Status(s) if s.location != Some(Location::Localized) => Err(format!(
             "the robot is not localised ({}), so its pose means nothing",
-            code_text(s.location)
+            reported_code_text(s.location)
         )),
         Response::Status(s) => Ok(s),
         other => Err(format!(
