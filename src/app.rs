@@ -20,7 +20,9 @@
 //!   while a request is slow, and with them a [`Snapshot`] of the panel for the console;
 //! - the **settings** loop takes in settings saved on the console
 //!   ([`Shared::apply_settings`]): new speeds, presets and poll periods at once, and a new
-//!   robot address by closing every connection, which reopen to the new address.
+//!   robot address by closing every connection, which reopen to the new address. The
+//!   button loop takes them in too before an event, so a press after a save (`dock` after
+//!   `dock here`) always acts on what was saved.
 //!
 //! The command loop counts its turns in [`Shared`]'s progress ([`Path::Commands`]); it turns
 //! at least every [`IDLE`] while it can make progress, so that a board's watchdog can tell
@@ -335,6 +337,12 @@ impl App<'_> {
     async fn button_loop(&self) -> ! {
         loop {
             let event = self.shared.buttons.receive().await;
+            // Settings saved before the press are in effect for it (a dock point saved, then
+            // `dock` pressed), even when the press and the save wake this task together and
+            // the settings loop, polled after this one, has not taken them in yet.
+            if let Some(config) = self.shared.settings.try_take() {
+                self.take_in_settings(&config);
+            }
             debug!(
                 "button {} {}",
                 event.button.name(),
@@ -673,24 +681,30 @@ impl App<'_> {
     async fn settings_loop(&self) -> ! {
         loop {
             let config = self.shared.settings.wait().await;
-            self.panel(|p| p.reconfigure(&config));
-            let target = self.robot.get();
-            if config.robot != target.robot {
-                let [a, b, c, d] = config.robot.ip;
-                info!(
-                    "settings: the robot is now {}.{}.{}.{}:{}; reconnecting",
-                    a, b, c, d, config.robot.port
-                );
-                self.robot.set(Target {
-                    robot: config.robot,
-                    moves: target.moves.wrapping_add(1),
-                });
-            }
-            self.wake_commands.signal(());
-            self.wake_polls.signal(());
-            self.wake_tasks.signal(());
-            self.wake_leds.signal(());
+            self.take_in_settings(&config);
         }
+    }
+
+    /// Puts saved settings in effect: the panel's, a new robot address (every connection
+    /// follows it), and the loops woken to act on them.
+    fn take_in_settings(&self, config: &Config) {
+        self.panel(|p| p.reconfigure(config));
+        let target = self.robot.get();
+        if config.robot != target.robot {
+            let [a, b, c, d] = config.robot.ip;
+            info!(
+                "settings: the robot is now {}.{}.{}.{}:{}; reconnecting",
+                a, b, c, d, config.robot.port
+            );
+            self.robot.set(Target {
+                robot: config.robot,
+                moves: target.moves.wrapping_add(1),
+            });
+        }
+        self.wake_commands.signal(());
+        self.wake_polls.signal(());
+        self.wake_tasks.signal(());
+        self.wake_leds.signal(());
     }
 }
 

@@ -600,6 +600,29 @@ async fn navigation_task_docks_and_is_cancelled_from_the_panel() {
 }
 
 #[tokio::test(flavor = "current_thread")]
+async fn a_dock_point_saved_right_before_dock_is_pressed_is_the_one_used() {
+    let sim = simulator(1.0);
+    far_from_dock(&sim);
+    with_app(&sim, async |shared| {
+        assert!(wait_for_log(&sim, 3000, |l| polls(l, 1002) > 0).await);
+        // Saved and pressed with no turn for the application in between, as a console's
+        // "saved" and a press that follows it can reach the application together.
+        shared.apply_settings(Config {
+            dock: Some(NavPoint::new(7, 2, 3.0, 0.0, 0.0, 0.0, PointInfo::Charging)),
+            ..config()
+        });
+        click(shared, Button::Dock).await;
+        assert!(wait_for_log(&sim, 2000, |l| polls(l, 1003) == 1).await);
+    })
+    .await;
+    let sent = sim.requests().into_iter().find_map(|e| match e.request {
+        Some(Request::NavTask(task)) => task.points.first().map(|p| (p.value, p.map_id)),
+        _ => None,
+    });
+    assert_eq!(sent, Some((7, 2)), "the dock point saved before the press");
+}
+
+#[tokio::test(flavor = "current_thread")]
 async fn motion_press_during_navigation_cancels_the_task_first() {
     let sim = simulator(1.0);
     far_from_dock(&sim);

@@ -603,6 +603,12 @@ fn patrol_walks_a_stored_route_and_stop_ends_it() {
         "one 1003 per point, in order"
     );
 
+    // The robot ends the last task before the panel has its answer; a press in between
+    // is dropped as made during a task. So the next press waits for the panel.
+    panel.expect_stdout(from, REACTION, "the end of the route", |l| {
+        l.contains("patrol: the route is done")
+    });
+
     // Again, and `stop` during the first point: 1004, zero velocity, no next point.
     sim.robot(|r| r.set_pose(x30_sim::Pose::default()));
     let again = sim.elapsed().as_secs_f64();
