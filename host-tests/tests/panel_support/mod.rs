@@ -123,12 +123,8 @@ pub fn status() -> RobotStatus {
         y0: -10.0,
         h: Some(400),
         electricity: Some(80),
-        location: Some(Location::Localized),
-        gait_state: Some(GaitState::Walk),
-        motor_state: Some(MotorState::Normal),
-        charge_state: Some(ChargeState::NotCharging),
-        control_mode: Some(ControlMode::Manual),
-        on_dock_state: Some(OnDockState::OffDock),
+        // Localised, walking, motors normal, not charging, manual, off the dock.
+        ..RobotStatus::UNAVAILABLE
     }
 }
 

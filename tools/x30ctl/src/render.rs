@@ -689,24 +689,10 @@ mod tests {
             motion_state: MotionState::Stepping,
             pos_x: -0.000_233_936_21,
             pos_y: 123.456_79,
-            pos_z: 0.0,
-            roll: 0.0,
-            pitch: 0.0,
-            yaw: 0.0,
-            speed: 0.0,
-            cur_odom: 0.0,
-            sum_odom: 0.0,
             res: 0.05,
-            x0: 0.0,
-            y0: 0.0,
             h: Some(100),
             electricity: Some(80),
-            location: Some(Location::Localized),
-            gait_state: Some(GaitState::Walk),
-            motor_state: Some(MotorState::Normal),
-            charge_state: Some(ChargeState::NotCharging),
-            control_mode: Some(ControlMode::Manual),
-            on_dock_state: Some(OnDockState::OffDock),
+            ..RobotStatus::UNAVAILABLE
         };
         let text = response_text(&Response::Status(status));
         assert!(text.contains("x -0.00023393621 m"), "{text}");
