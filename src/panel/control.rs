@@ -276,8 +276,8 @@ impl Control {
         }
     }
 
-    /// A debounced press or release. `robot_gait` is the robot's gait from a fresh status,
-    /// if there is one: `gait` steps on from it.
+    /// A debounced press or release. `robot_gait` is the robot's gait from a fresh status
+    /// that reports one: `gait` steps on from it, and is refused without it.
     pub fn button(&mut self, event: ButtonEvent, robot_gait: Option<GaitState>) {
         let ButtonEvent {
             button,

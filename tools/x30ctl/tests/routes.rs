@@ -11,7 +11,7 @@ use std::time::Duration;
 use common::*;
 use serde_json::value::RawValue;
 use x30_panel::proto::message::{NavPoint, Request};
-use x30_sim::{Config, Pose, Simulator, TaskEvent};
+use x30_sim::{Config, Faults, Pose, Simulator, TaskEvent};
 
 /// The vendor SDK's example route, byte for byte (see tests/data/README.md).
 const VENDOR: &str = concat!(
@@ -736,28 +736,48 @@ fn record_refuses_to_overwrite_and_records_nothing_without_a_pose() {
     .stderr_has("posture crouched allows only the gaits walk and slope");
     assert!(sim.requests().is_empty());
 
-    // With --force it records, but only poses worth having: not an unavailable status.
-    sim.robot(|r| r.set_navigation_running(false));
-    let mut record = spawn_interactive(
-        &sim,
-        &[
-            "route",
-            "record",
-            &file.arg(),
-            "--map-id",
-            "0",
-            "--force",
-            "--json",
-        ],
-    );
-    record.send("");
-    record.send("q");
-    let run = record.finish(RUN_LIMIT);
-    run.expect_code(2)
-        .stderr_has("point 1 not recorded: status unavailable")
-        .stderr_has("no point recorded");
-    assert_eq!(std::fs::read_to_string(&file.0).unwrap(), "keep me");
+    // With --force it records, but only poses worth having: not from an unavailable status,
+    // nor from one that does not say whether the robot is localised.
+    let refusals = [
+        (
+            false,
+            Faults::default(),
+            "point 1 not recorded: status unavailable",
+        ),
+        (
+            true,
+            Faults {
+                sparse_status: true,
+                ..Faults::default()
+            },
+            "point 1 not recorded: the robot does not report whether it is localised",
+        ),
+    ];
+    for (navigating, faults, refusal) in refusals {
+        sim.robot(|r| r.set_navigation_running(navigating));
+        sim.set_faults(faults);
+        let mut record = spawn_interactive(
+            &sim,
+            &[
+                "route",
+                "record",
+                &file.arg(),
+                "--map-id",
+                "0",
+                "--force",
+                "--json",
+            ],
+        );
+        record.send("");
+        record.send("q");
+        let run = record.finish(RUN_LIMIT);
+        run.expect_code(2)
+            .stderr_has(refusal)
+            .stderr_has("no point recorded");
+        assert_eq!(std::fs::read_to_string(&file.0).unwrap(), "keep me");
+    }
 
+    sim.set_faults(Faults::default());
     sim.robot(|r| r.set_navigation_running(true));
     let mut record = spawn_interactive(
         &sim,

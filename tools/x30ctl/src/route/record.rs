@@ -169,6 +169,10 @@ fn pose(ctx: &Ctx, conn: &mut Option<Connection>) -> Result<RobotStatus, String>
     })?;
     match answer.response {
         Response::Status(s) if s.is_unavailable() => Err(render::STATUS_UNAVAILABLE.to_owned()),
+        Response::Status(s) if s.location.is_none() => Err(
+            "the robot does not report whether it is localised, so its pose may mean nothing"
+                .to_owned(),
+        ),
         Response::Status(s) if s.location != Some(Location::Localized) => Err(format!(
             "the robot is not localised ({}), so its pose means nothing",
             reported_code_text(s.location)
