@@ -9,6 +9,7 @@
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::*;
 use x30_panel::proto::time::Timestamp;
+use x30_panel::proto::xml::number::NumberError;
 use x30_panel::proto::xml::writer::ItemName;
 
 const T0: Timestamp = Timestamp::DOCUMENT_EPOCH;
@@ -810,6 +811,57 @@ fn light_1101_request_and_response() {
         })
     );
     assert_response_round_trip(&ack);
+}
+
+/// A robot that keeps an integer in a float prints it with a point (`87.0`, C's `87.000000`):
+/// the answer is read, the integer exactly; a fraction is still refused, and so is any
+/// such text in a request.
+#[test]
+fn answers_may_write_an_integer_item_as_a_whole_float() {
+    let status = |electricity: &str, motion: &str| {
+        format!(
+            "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items>\
+             <MotionState>{motion}</MotionState><Electricity>{electricity}</Electricity></Items></PatrolDevice>"
+        )
+    };
+    for (electricity, motion, expected) in [
+        ("87.0", "6", (87, MotionState::SoftEmergencyStop)),
+        (
+            "87.000000",
+            "6.000000",
+            (87, MotionState::SoftEmergencyStop),
+        ),
+        ("-1.", "+4.0", (-1, MotionState::Stepping)),
+    ] {
+        let Response::Status(s) = response(&status(electricity, motion)).message else {
+            panic!("not a status")
+        };
+        assert_eq!(
+            (s.electricity, s.motion_state),
+            (Some(expected.0), expected.1)
+        );
+    }
+    for (electricity, error) in [
+        ("86.5", NumberError::Invalid),
+        (".0", NumberError::Invalid),
+        ("87.0.0", NumberError::Invalid),
+        ("1e2", NumberError::Invalid),
+        ("3000000000.0", NumberError::OutOfRange),
+    ] {
+        assert_eq!(
+            Response::decode(status(electricity, "4").as_bytes()),
+            Err(DecodeError::BadItem {
+                item: const { &ItemName::new("Electricity") },
+                error,
+            }),
+            "{electricity}"
+        );
+    }
+    let light = "<PatrolDevice><Type>1101</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><Red>0</Red><Green>255.0</Green><Blue>0</Blue><PER>0</PER><LUM>50</LUM></Items></PatrolDevice>";
+    assert!(matches!(
+        Request::decode(light.as_bytes()),
+        Err(DecodeError::BadItem { item, .. }) if item.as_bytes() == b"Green"
+    ));
 }
 
 /// The document's own 1101 sample has non-integer and negative values (docs/protocol.md,

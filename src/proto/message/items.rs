@@ -360,21 +360,56 @@ pub(crate) fn parse_text(
     spec: &'static ItemSpec,
     sender: Sender,
 ) -> Result<u32, DecodeError> {
-    let bad = |error| DecodeError::BadItem {
-        item: &spec.name,
-        error,
-    };
     let text = text.ok_or(DecodeError::ItemNotText(&spec.name))?;
     match spec.kind {
         Kind::Float => match number::parse_f32(text) {
             Ok(value) => Ok(value.to_bits()),
             Err(error) => not_a_number(text, spec, sender, error),
         },
-        Kind::Int => number::parse_int::<i32>(text)
-            .map(|v| v as u32)
-            .map_err(bad),
-        Kind::Byte => number::parse_int::<u8>(text).map(u32::from).map_err(bad),
+        Kind::Int | Kind::Byte => {
+            integer(text, spec.kind).or_else(|error| whole_float(text, spec, sender, error))
+        }
     }
+}
+
+/// An integer item's text as the bits of its value: an `i32`, or a `u8` for [`Kind::Byte`].
+#[inline(always)]
+fn integer(text: &[u8], kind: Kind) -> Result<u32, number::NumberError> {
+    match kind {
+        Kind::Byte => number::parse_int::<u8>(text).map(u32::from),
+        _ => number::parse_int::<i32>(text).map(|v| v as u32),
+    }
+}
+
+/// An integer item whose text is not an integer: the integer if the robot wrote it as a
+/// float with nothing but zeros after the point (`87.0`, `87.000000`, as C's `%f` and
+/// Python's `str` print a whole number held in a float), else `error` naming the item.
+/// Nothing is rounded: `86.5` is refused. A request must write integers as integers.
+/// Out of line and cold, as [`not_a_number`] is.
+#[cold]
+#[inline(never)]
+fn whole_float(
+    text: &[u8],
+    spec: &'static ItemSpec,
+    sender: Sender,
+    error: number::NumberError,
+) -> Result<u32, DecodeError> {
+    let bad = |error| DecodeError::BadItem {
+        item: &spec.name,
+        error,
+    };
+    let whole = match (sender, text.iter().position(|&c| c == b'.')) {
+        (Sender::Robot, Some(point)) => {
+            let (whole, fraction) = text.split_at(point);
+            let zeros = fraction.get(1..).unwrap_or_default();
+            if whole.is_empty() || zeros.iter().any(|&c| c != b'0') {
+                return Err(bad(error));
+            }
+            whole
+        }
+        _ => return Err(bad(error)),
+    };
+    integer(whole, spec.kind).map_err(bad)
 }
 
 /// A float item whose text is not a number: NaN or an infinity if the robot wrote C's word
