@@ -753,21 +753,14 @@ fn record_refuses_to_overwrite_and_records_nothing_without_a_pose() {
             "point 1 not recorded: the robot does not report whether it is localised",
         ),
     ];
+    let path = file.arg();
+    let forced = [
+        "route", "record", &path, "--map-id", "0", "--force", "--json",
+    ];
     for (navigating, faults, refusal) in refusals {
         sim.robot(|r| r.set_navigation_running(navigating));
         sim.set_faults(faults);
-        let mut record = spawn_interactive(
-            &sim,
-            &[
-                "route",
-                "record",
-                &file.arg(),
-                "--map-id",
-                "0",
-                "--force",
-                "--json",
-            ],
-        );
+        let mut record = spawn_interactive(&sim, &forced);
         record.send("");
         record.send("q");
         let run = record.finish(RUN_LIMIT);
@@ -779,18 +772,7 @@ fn record_refuses_to_overwrite_and_records_nothing_without_a_pose() {
 
     sim.set_faults(Faults::default());
     sim.robot(|r| r.set_navigation_running(true));
-    let mut record = spawn_interactive(
-        &sim,
-        &[
-            "route",
-            "record",
-            &file.arg(),
-            "--map-id",
-            "0",
-            "--force",
-            "--json",
-        ],
-    );
+    let mut record = spawn_interactive(&sim, &forced);
     record.send("");
     record.expect_line("\"kind\":\"route_point\"", RUN_LIMIT);
     // The end of the input finishes like q.
