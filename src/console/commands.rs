@@ -7,6 +7,7 @@ use embassy_time::{Duration, Instant};
 use super::Answer;
 use crate::app::Snapshot;
 use crate::panel::indicators::LinkState;
+use crate::proto::codes::NOT_REPORTED;
 use crate::proto::xml::number::parse_f32;
 use crate::settings::route::{DEFAULT_POINT_INFO, MAX_ROUTE, RoutePoint, parse_point_info};
 use crate::settings::text::NONE;
@@ -253,7 +254,7 @@ fn status(
             let level = battery.map_or(status.value.electricity, |b| Some(b.value.battery_level));
             let _ = match level {
                 Some(level) => writeln!(answer, "battery    {level} %"),
-                None => writeln!(answer, "battery    not reported"),
+                None => writeln!(answer, "battery    {NOT_REPORTED}"),
             };
             let _ = writeln!(
                 answer,

@@ -26,6 +26,15 @@ pub trait Code: Copy + fmt::Debug + fmt::Display {
     fn name(self) -> &'static str;
 }
 
+/// How an item an answer left out reads, where its value or description would stand.
+pub const NOT_REPORTED: &str = "not reported";
+
+/// A coded item the robot may leave out of an answer, in words: its
+/// [`description`](Code::description), or [`NOT_REPORTED`].
+pub fn reported_description<T: Code>(code: Option<T>) -> &'static str {
+    code.map_or(NOT_REPORTED, T::description)
+}
+
 /// Generates a coded enum with an `Unknown(i32)` case and its conversions.
 ///
 /// Each variant is `Name = raw => "description"`; the description also becomes the variant's

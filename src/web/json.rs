@@ -27,7 +27,7 @@ use embassy_time::{Duration, Instant};
 use crate::app::Snapshot;
 use crate::panel::indicators::LinkState;
 use crate::panel::monitor::{Stamped, stale_limit};
-use crate::proto::codes::Code;
+use crate::proto::codes::reported_description;
 use crate::proto::message::items::{ItemSet, ItemSpec, Kind, MAX_ITEMS, Present};
 use crate::proto::message::{Battery, MotorTemperatures, NavTaskState, Perception, RobotStatus};
 use crate::proto::xml::number::F32_TEXT_MAX;
@@ -283,20 +283,15 @@ trait Shown: ItemSet + 'static {
     }
 }
 
-/// A coded item in words, if the robot reported it.
-fn reported<T: Code>(code: Option<T>) -> &'static str {
-    code.map_or("not reported", Code::description)
-}
-
 impl Shown for RobotStatus {
     const WORDS: &'static [Word<Self>] = &[
         ("MotionState", |s| s.motion_state.description()),
-        ("Location", |s| reported(s.location)),
-        ("GaitState", |s| reported(s.gait_state)),
-        ("MotorState", |s| reported(s.motor_state)),
-        ("ChargeState", |s| reported(s.charge_state)),
-        ("ControlMode", |s| reported(s.control_mode)),
-        ("OnDockState", |s| reported(s.on_dock_state)),
+        ("Location", |s| reported_description(s.location)),
+        ("GaitState", |s| reported_description(s.gait_state)),
+        ("MotorState", |s| reported_description(s.motor_state)),
+        ("ChargeState", |s| reported_description(s.charge_state)),
+        ("ControlMode", |s| reported_description(s.control_mode)),
+        ("OnDockState", |s| reported_description(s.on_dock_state)),
     ];
 
     /// The all-zero status the robot sends when it cannot read its own.

@@ -61,9 +61,6 @@ pub fn code_text<T: Code>(value: T) -> String {
     format!("{} ({})", value.description(), value.raw())
 }
 
-/// What an item the robot left out of its answer reads.
-pub const NOT_REPORTED: &str = "not reported";
-
 /// A coded item the robot may leave out: [`code_text`], or [`NOT_REPORTED`].
 pub fn reported_code_text<T: Code>(value: Option<T>) -> String {
     value.map_or_else(|| NOT_REPORTED.to_owned(), code_text)

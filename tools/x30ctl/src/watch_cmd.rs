@@ -11,14 +11,14 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
-use x30_panel::proto::codes::Code;
+use x30_panel::proto::codes::reported_description;
 use x30_panel::proto::message::{Battery, Perception, Request, Response, RobotStatus};
 
 use crate::Ctx;
 use crate::cli::WatchArgs;
 use crate::conn::{Answer, Connection};
 use crate::error::Error;
-use crate::render::{self, AnswerJson, NOT_REPORTED, code_text, emit, note, reading, reported_int};
+use crate::render::{self, AnswerJson, code_text, emit, note, reading, reported_int};
 
 /// ANSI: cursor home, clear screen.
 const CLEAR: &str = "\x1b[H\x1b[2J";
@@ -160,16 +160,11 @@ fn status_fields(s: &RobotStatus) -> String {
         reading(s.yaw, ""),
         reading(s.speed, ""),
         reported_int(s.electricity, ""),
-        words(s.gait_state),
-        words(s.location),
-        words(s.charge_state),
-        words(s.on_dock_state),
+        reported_description(s.gait_state),
+        reported_description(s.location),
+        reported_description(s.charge_state),
+        reported_description(s.on_dock_state),
     )
-}
-
-/// A coded item the robot may leave out, in words.
-fn words<T: Code>(value: Option<T>) -> &'static str {
-    value.map_or(NOT_REPORTED, Code::description)
 }
 
 fn battery_fields(b: &Battery) -> String {
