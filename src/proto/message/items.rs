@@ -398,17 +398,14 @@ fn whole_float(
         item: &spec.name,
         error,
     };
-    let whole = match (sender, text.iter().position(|&c| c == b'.')) {
-        (Sender::Robot, Some(point)) => {
-            let (whole, fraction) = text.split_at(point);
-            let zeros = fraction.get(1..).unwrap_or_default();
-            if whole.is_empty() || zeros.iter().any(|&c| c != b'0') {
-                return Err(bad(error));
-            }
-            whole
-        }
-        _ => return Err(bad(error)),
+    let (Sender::Robot, Some(point)) = (sender, text.iter().position(|&c| c == b'.')) else {
+        return Err(bad(error));
     };
+    // The point and the zeros after it.
+    let (whole, fraction) = text.split_at(point);
+    if whole.is_empty() || fraction.iter().skip(1).any(|&c| c != b'0') {
+        return Err(bad(error));
+    }
     integer(whole, spec.kind).map_err(bad)
 }
 

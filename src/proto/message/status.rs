@@ -118,9 +118,10 @@ impl RobotStatus {
             self.on_dock_state.map(OnDockState::raw),
         ];
         let floats = floats.into_iter().filter(|f| !f.is_nan()).map(|f| f == 0.0);
-        let mut reported = floats.chain(integers.into_iter().flatten().map(|i| i == 0));
-        let first = reported.next();
-        self.motion_state.raw() == 0 && first == Some(true) && reported.all(|zero| zero)
+        let mut zero = floats
+            .chain(integers.into_iter().flatten().map(|i| i == 0))
+            .peekable();
+        self.motion_state.raw() == 0 && zero.peek().is_some() && zero.all(|z| z)
     }
 
     /// The map image geometry this status reports; `None` without the image height.

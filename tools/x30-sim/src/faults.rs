@@ -283,20 +283,14 @@ fn insert_unknown_items(body: &[u8]) -> Vec<u8> {
         out.extend_from_slice(body.get(at + b"<Items/>".len()..).unwrap_or_default());
         return out;
     }
-    let (Some(open), Some(close)) = (find(body, b"<Items>"), find(body, b"</Items>")) else {
+    let Some(ItemsBlock { head, lines, tail }) = items_block(body) else {
         return body.to_vec();
     };
-    let start = open + b"<Items>".len();
-    let Some(content) = body.get(start..close) else {
-        return body.to_vec();
-    };
-    // The encoder writes one item per line; the last piece is the indentation of </Items>.
-    let pieces: Vec<&[u8]> = content.split_inclusive(|&b| b == b'\n').collect();
     let is_item = |piece: &&[u8]| piece.contains(&b'<');
-    let last_item = pieces.iter().rposition(is_item);
+    let last_item = lines.iter().rposition(is_item);
     let mut extras = UNKNOWN_ITEMS.iter();
-    let mut out = body.get(..start).unwrap_or_default().to_vec();
-    for (i, piece) in pieces.iter().enumerate() {
+    let mut out = head.to_vec();
+    for (i, piece) in lines.iter().enumerate() {
         if is_item(piece)
             && let Some(extra) = extras.next()
         {
@@ -307,29 +301,49 @@ fn insert_unknown_items(body: &[u8]) -> Vec<u8> {
             extras.by_ref().for_each(|e| out.extend_from_slice(e));
         }
     }
-    out.extend_from_slice(body.get(close..).unwrap_or_default());
+    out.extend_from_slice(tail);
     out
 }
 
 /// Leaves out every item line of the first `<Items>` block but `name`'s.
 fn keep_one_item(body: &[u8], name: &str) -> Vec<u8> {
-    let (Some(open), Some(close)) = (find(body, b"<Items>"), find(body, b"</Items>")) else {
-        return body.to_vec();
-    };
-    let start = open + b"<Items>".len();
-    let Some(content) = body.get(start..close) else {
+    let Some(ItemsBlock { head, lines, tail }) = items_block(body) else {
         return body.to_vec();
     };
     let kept = format!("<{name}>");
-    let mut out = body.get(..start).unwrap_or_default().to_vec();
-    // The encoder writes one item per line; the last piece is the indentation of </Items>.
-    for piece in content.split_inclusive(|&b| b == b'\n') {
+    let mut out = head.to_vec();
+    for piece in lines {
         if !piece.contains(&b'<') || find(piece, kept.as_bytes()).is_some() {
             out.extend_from_slice(piece);
         }
     }
-    out.extend_from_slice(body.get(close..).unwrap_or_default());
+    out.extend_from_slice(tail);
     out
+}
+
+/// The first `<Items>` block of an encoded body, split for rewriting.
+struct ItemsBlock<'a> {
+    /// Everything up to and including `<Items>`.
+    head: &'a [u8],
+    /// The block's lines: the encoder writes one item per line; the last piece is the
+    /// indentation of `</Items>`.
+    lines: Vec<&'a [u8]>,
+    /// Everything from `</Items>` on.
+    tail: &'a [u8],
+}
+
+/// The first `<Items>` block of `body`, if it has one.
+fn items_block(body: &[u8]) -> Option<ItemsBlock<'_>> {
+    let start = find(body, b"<Items>")? + b"<Items>".len();
+    let close = find(body, b"</Items>")?;
+    Some(ItemsBlock {
+        head: body.get(..start)?,
+        lines: body
+            .get(start..close)?
+            .split_inclusive(|&b| b == b'\n')
+            .collect(),
+        tail: body.get(close..)?,
+    })
 }
 
 /// Position of the first occurrence of `needle` in `haystack`.

@@ -23,7 +23,7 @@ use crate::Ctx;
 use crate::cli::RouteRecordArgs;
 use crate::conn::Connection;
 use crate::error::{Error, io_text};
-use crate::render::{self, emit, note, reported_code_text, warn};
+use crate::render::{self, code_text, emit, note, warn};
 
 /// How often the live pose is refreshed on a terminal.
 const LIVE_POLL: Duration = Duration::from_millis(500);
@@ -169,15 +169,17 @@ fn pose(ctx: &Ctx, conn: &mut Option<Connection>) -> Result<RobotStatus, String>
     })?;
     match answer.response {
         Response::Status(s) if s.is_unavailable() => Err(render::STATUS_UNAVAILABLE.to_owned()),
-        Response::Status(s) if s.location.is_none() => Err(
-            "the robot does not report whether it is localised, so its pose may mean nothing"
-                .to_owned(),
-        ),
-        Response::Status(s) if s.location != Some(Location::Localized) => Err(format!(
-            "the robot is not localised ({}), so its pose means nothing",
-            reported_code_text(s.location)
-        )),
-        Response::Status(s) => Ok(s),
+        Response::Status(s) => match s.location {
+            Some(Location::Localized) => Ok(s),
+            Some(other) => Err(format!(
+                "the robot is not localised ({}), so its pose means nothing",
+                code_text(other)
+            )),
+            None => Err(
+                "the robot does not report whether it is localised, so its pose may mean nothing"
+                    .to_owned(),
+            ),
+        },
         other => Err(format!(
             "unexpected answer: {}",
             render::response_text(&other)
