@@ -723,7 +723,7 @@ async fn leds_follow_the_robot() {
 
 #[tokio::test(flavor = "current_thread")]
 async fn every_fault_injection_option_is_survived() {
-    let options: [(&str, Faults); 11] = [
+    let options: [(&str, Faults); 12] = [
         (
             "delay",
             Faults {
@@ -777,6 +777,13 @@ async fn every_fault_injection_option_is_survived() {
             "status with MotionState alone",
             Faults {
                 sparse_status: true,
+                ..Default::default()
+            },
+        ),
+        (
+            "decimal commas",
+            Faults {
+                decimal_comma: true,
                 ..Default::default()
             },
         ),
@@ -1282,39 +1289,57 @@ async fn estop_pressed_while_the_robot_refuses_connections_goes_out_first_when_i
     .await;
 }
 
+/// A robot whose status carries nothing readable but `MotionState` (it leaves the rest out,
+/// or writes its floats with a decimal comma) still confirms an e-stop, which then stops
+/// repeating.
 #[tokio::test(flavor = "current_thread")]
-async fn an_estop_is_confirmed_by_a_status_that_carries_motion_state_alone() {
-    let sim = simulator(1.0);
-    sim.set_faults(Faults {
-        sparse_status: true,
-        ..Default::default()
-    });
-    with_app(&sim, async |shared| {
-        let mut leds = Leds(None);
-        let ok = leds.until(shared, 4000, |i| i.link == Led::On).await;
-        assert_eq!(
-            ok.link,
-            Led::On,
-            "a status without the other items is readable"
-        );
-        let pressed = sim.elapsed().as_secs_f64();
-        click(shared, Button::Estop).await;
-        sleep(1500).await;
-        let estops: Vec<f64> = motion(&sim.requests())
-            .into_iter()
-            .filter(|(t, c)| *t >= pressed && *c == 13)
-            .map(|(t, _)| t)
-            .collect();
-        let last = *estops.last().expect("the e-stop went out");
-        let after = sim.elapsed().as_secs_f64();
-        assert!(
-            after - last > 0.6,
-            "no more e-stops once the robot confirmed: {estops:?}, now {after:.2}"
-        );
-        let fault = leds.until(shared, 2000, |i| i.fault == Led::On).await.fault;
-        assert_eq!(fault, Led::On, "the soft e-stop shows on the fault LED");
-    })
-    .await;
+async fn an_estop_is_confirmed_by_a_status_whose_motion_state_alone_is_readable() {
+    let robots = [
+        (
+            "MotionState alone",
+            Faults {
+                sparse_status: true,
+                ..Default::default()
+            },
+        ),
+        (
+            "decimal commas",
+            Faults {
+                decimal_comma: true,
+                ..Default::default()
+            },
+        ),
+    ];
+    for (name, faults) in robots {
+        let sim = simulator(1.0);
+        sim.set_faults(faults);
+        with_app(&sim, async |shared| {
+            let mut leds = Leds(None);
+            let ok = leds.until(shared, 4000, |i| i.link == Led::On).await;
+            assert_eq!(ok.link, Led::On, "{name}: the status is readable");
+            let pressed = sim.elapsed().as_secs_f64();
+            click(shared, Button::Estop).await;
+            sleep(1500).await;
+            let estops: Vec<f64> = motion(&sim.requests())
+                .into_iter()
+                .filter(|(t, c)| *t >= pressed && *c == 13)
+                .map(|(t, _)| t)
+                .collect();
+            let last = *estops.last().expect("the e-stop went out");
+            let after = sim.elapsed().as_secs_f64();
+            assert!(
+                after - last > 0.6,
+                "{name}: no more e-stops once the robot confirmed: {estops:?}, now {after:.2}"
+            );
+            let fault = leds.until(shared, 2000, |i| i.fault == Led::On).await.fault;
+            assert_eq!(
+                fault,
+                Led::On,
+                "{name}: the soft e-stop shows on the fault LED"
+            );
+        })
+        .await;
+    }
 }
 
 #[tokio::test(flavor = "current_thread")]

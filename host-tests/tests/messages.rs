@@ -315,6 +315,55 @@ fn status_missing_items_keeps_the_others() {
     assert!(!s.is_unavailable());
 }
 
+/// A reading the panel cannot read is no reading: the robot's C library under a locale with
+/// a decimal comma, MSVC's NaN, an empty element, an element holding elements, an integer
+/// beyond 32 bits. Each such optional item is not reported and the rest of the status is
+/// read, by both readers; `MotionState` written so still refuses it, and a request item
+/// written so is refused.
+#[test]
+fn an_unreadable_optional_item_in_an_answer_is_not_reported() {
+    let status = |items: &str| {
+        format!(
+            "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time>\
+             <Items>{items}</Items></PatrolDevice>"
+        )
+    };
+    let unreadable = status(
+        "<MotionState>6</MotionState><PosX>12,345678</PosX><PosY>-nan(ind)</PosY><PosZ></PosZ>\
+         <Roll/><Pitch><Value>1</Value></Pitch><Yaw>1.5</Yaw><H>4294967295</H><Electricity>87</Electricity>\
+         <GaitState>0x1</GaitState><Location>1e0</Location><MotorState>0</MotorState>",
+    );
+    for decode in [Response::decode, Response::decode_general] {
+        let Ok(Decoded {
+            message: Response::Status(s),
+            ..
+        }) = decode(unreadable.as_bytes())
+        else {
+            panic!("the status is refused");
+        };
+        assert_eq!(s.motion_state, MotionState::SoftEmergencyStop);
+        let unread = [s.pos_x, s.pos_y, s.pos_z, s.roll, s.pitch];
+        assert!(unread.iter().all(|f| f.is_nan()), "{unread:?}");
+        assert_eq!((s.h, s.gait_state, s.location), (None, None, None));
+        assert_eq!(
+            (s.yaw, s.electricity, s.motor_state),
+            (1.5, Some(87), Some(MotorState::Normal)),
+            "the items that could be read"
+        );
+    }
+    assert_eq!(
+        Response::decode(status("<MotionState>6,0</MotionState>").as_bytes()),
+        Err(DecodeError::BadItem {
+            item: const { &ItemName::new("MotionState") },
+            error: NumberError::Invalid,
+        })
+    );
+    assert!(matches!(
+        Request::decode(NAV_REQUEST.replace("<PosX>0.0<", "<PosX>0,5<").as_bytes()),
+        Err(DecodeError::BadItem { item, .. }) if item.as_bytes() == b"PosX"
+    ));
+}
+
 #[test]
 fn status_without_motion_state_is_refused_naming_it() {
     let xml = "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><PosX>1</PosX><Electricity>50</Electricity></Items></PatrolDevice>";
@@ -814,8 +863,9 @@ fn light_1101_request_and_response() {
 }
 
 /// A robot that keeps an integer in a float prints it with a point (`87.0`, C's `87.000000`):
-/// the answer is read, the integer exactly; a fraction is still refused, and so is any
-/// such text in a request.
+/// the answer is read, the integer exactly. Nothing is rounded: another text is no integer,
+/// so an optional item holding it is not reported and a required one refuses the answer;
+/// any such text in a request is refused.
 #[test]
 fn answers_may_write_an_integer_item_as_a_whole_float() {
     let status = |electricity: &str, motion: &str| {
@@ -841,20 +891,24 @@ fn answers_may_write_an_integer_item_as_a_whole_float() {
             (Some(expected.0), expected.1)
         );
     }
-    for (electricity, error) in [
+    for (text, error) in [
         ("86.5", NumberError::Invalid),
         (".0", NumberError::Invalid),
         ("87.0.0", NumberError::Invalid),
         ("1e2", NumberError::Invalid),
         ("3000000000.0", NumberError::OutOfRange),
     ] {
+        let Response::Status(s) = response(&status(text, "4")).message else {
+            panic!("not a status")
+        };
+        assert_eq!(s.electricity, None, "Electricity {text}");
         assert_eq!(
-            Response::decode(status(electricity, "4").as_bytes()),
+            Response::decode(status("87", text).as_bytes()),
             Err(DecodeError::BadItem {
-                item: const { &ItemName::new("Electricity") },
+                item: const { &ItemName::new("MotionState") },
                 error,
             }),
-            "{electricity}"
+            "MotionState {text}"
         );
     }
     let light = "<PatrolDevice><Type>1101</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><Red>0</Red><Green>255.0</Green><Blue>0</Blue><PER>0</PER><LUM>50</LUM></Items></PatrolDevice>";
@@ -1185,16 +1239,23 @@ fn answers_may_report_nan_and_infinity_and_requests_may_not() {
     }
     let again = Response::decode(&buf[..n]).unwrap();
     assert_eq!(format!("{again:?}"), format!("{decoded:?}"), "{text}");
-    // Anything else that is not a number is still refused in an answer.
+    // Anything else that is not a number is no reading: an optional item holding it is not
+    // reported, a required one refuses the answer.
     for text in ["nan1", "na", "infinit", "+-inf", "nan()"] {
+        let Response::Status(status) =
+            response(&STATUS_WITH_EVERY_ITEM.replace(">12.3456783<", &format!(">{text}<"))).message
+        else {
+            panic!("not a status");
+        };
+        assert!(status.pos_x.is_nan(), "{text}");
+        let temperatures = format!(
+            "<PatrolDevice><Type>1008</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time>\
+             <Items><LeftFrontSway>{text}</LeftFrontSway></Items></PatrolDevice>"
+        );
         assert_eq!(
-            Response::decode(
-                STATUS_WITH_EVERY_ITEM
-                    .replace(">12.3456783<", &format!(">{text}<"))
-                    .as_bytes()
-            ),
+            Response::decode(temperatures.as_bytes()),
             Err(DecodeError::BadItem {
-                item: const { &ItemName::new("PosX") },
+                item: const { &ItemName::new("LeftFrontSway") },
                 error: NumberError::Invalid
             }),
             "{text}"

@@ -311,8 +311,7 @@ pub(crate) fn read_values(
             }
             match items.next_plain(spec.name.as_bytes()) {
                 Some((item, true)) => {
-                    *value = parse_text(item.text, spec, sender)?;
-                    present |= 1 << next;
+                    present |= u32::from(read_item(item.text, spec, sender, value)?) << next;
                     next += 1;
                     continue;
                 }
@@ -337,8 +336,7 @@ pub(crate) fn read_values(
         };
         let known = index.and_then(|i| Some((i, spec.get(i)?, values.get_mut(i)?)));
         if let Some((index, spec, value)) = known {
-            *value = parse_text(item.text, spec, sender)?;
-            present |= 1 << index;
+            present |= u32::from(read_item(item.text, spec, sender, value)?) << index;
             next = index + 1;
         }
     }
@@ -350,6 +348,29 @@ pub(crate) fn read_values(
                 first.map_or(const { &ItemName::new("") }, |item| &item.name),
             ))
         }
+    }
+}
+
+/// Reads one item's text into `value` and returns whether the item is present. An answer's
+/// optional item that cannot be read (a float with a decimal comma, as a C library under
+/// some locales prints it; an empty element; an integer beyond 32 bits) is not present, as
+/// if the robot had left it out: one unreadable reading must not cost the panel the whole
+/// answer, and with a status the e-stop's confirmation. A required item, and any item of a
+/// request (which the robot acts on), must be read.
+#[inline(always)]
+fn read_item(
+    text: Option<&[u8]>,
+    spec: &'static ItemSpec,
+    sender: Sender,
+    value: &mut u32,
+) -> Result<bool, DecodeError> {
+    match parse_text(text, spec, sender) {
+        Ok(bits) => {
+            *value = bits;
+            Ok(true)
+        }
+        Err(_) if sender == Sender::Robot && !spec.required => Ok(false),
+        Err(error) => Err(error),
     }
 }
 

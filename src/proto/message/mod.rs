@@ -65,9 +65,11 @@ pub enum DecodeError {
     UnknownCommand(i32),
     /// A required item is missing.
     MissingItem(&'static ItemName),
-    /// An item holds child elements where a value was expected.
+    /// An item holds child elements where a value was expected (as for
+    /// [`DecodeError::BadItem`], an optional item of an answer counts as absent instead).
     ItemNotText(&'static ItemName),
-    /// An item's value does not parse or does not fit.
+    /// An item's value does not parse or does not fit: any item of a request, a required
+    /// item of an answer (an optional one that cannot be read counts as absent).
     BadItem {
         /// The item's element name.
         item: &'static ItemName,

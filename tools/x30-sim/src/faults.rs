@@ -99,6 +99,9 @@ pub struct Faults {
     /// Leave every item but [`SPARSE_STATUS_ITEM`] out of status answers: a robot that
     /// reports less than the document lists.
     pub sparse_status: bool,
+    /// Write every decimal point in answers' items as a comma (`12,345678`), as the C
+    /// library of a robot_server that runs under a locale such as `de_DE` prints floats.
+    pub decimal_comma: bool,
     /// The XML declaration of answers.
     pub declaration: Declaration,
 }
@@ -188,8 +191,8 @@ pub const SPARSE_STATUS_ITEM: &str = "MotionState";
 const SINGLE_DECLARATION: &[u8] = b"<?xml version='1.0' encoding='utf-8'?>";
 
 /// Alters an encoded XML body as the faults ask: fewer items, extra items, an unknown
-/// pose, another Type, another declaration. Without those faults the body comes back
-/// unchanged.
+/// pose, decimal commas, another Type, another declaration. Without those faults the body
+/// comes back unchanged.
 pub fn alter_body(body: &[u8], faults: &Faults) -> Vec<u8> {
     let mut body = body.to_vec();
     if faults.sparse_status && find(&body, b"<Type>1002</Type>").is_some() {
@@ -202,6 +205,9 @@ pub fn alter_body(body: &[u8], faults: &Faults) -> Vec<u8> {
         for name in UNKNOWN_POSE_ITEMS {
             body = replace_text(&body, name, "nan");
         }
+    }
+    if faults.decimal_comma {
+        body = decimal_commas(&body);
     }
     if faults.unknown_type {
         body = replace_text(&body, "Type", &UNKNOWN_TYPE.to_string());
@@ -300,6 +306,19 @@ fn insert_unknown_items(body: &[u8]) -> Vec<u8> {
         if Some(i) == last_item {
             extras.by_ref().for_each(|e| out.extend_from_slice(e));
         }
+    }
+    out.extend_from_slice(tail);
+    out
+}
+
+/// Writes every `.` of the first `<Items>` block as `,`: only numbers have one there.
+fn decimal_commas(body: &[u8]) -> Vec<u8> {
+    let Some(ItemsBlock { head, lines, tail }) = items_block(body) else {
+        return body.to_vec();
+    };
+    let mut out = head.to_vec();
+    for line in lines {
+        out.extend(line.iter().map(|&c| if c == b'.' { b',' } else { c }));
     }
     out.extend_from_slice(tail);
     out
@@ -515,6 +534,35 @@ mod tests {
             ..Faults::default()
         };
         assert_eq!(alter_body(&encode(&ack()), &only_sparse), encode(&ack()));
+    }
+
+    #[test]
+    fn decimal_comma_writes_the_items_floats_with_commas_and_the_panel_reads_the_rest() {
+        let status = RobotStatus {
+            motion_state: MotionState::SoftEmergencyStop,
+            pos_x: 12.5,
+            electricity: Some(87),
+            ..RobotStatus::UNAVAILABLE
+        };
+        let faults = Faults {
+            decimal_comma: true,
+            unknown_items: true,
+            ..Faults::default()
+        };
+        let altered = alter_body(&encode(&Response::Status(status)), &faults);
+        let xml = text(&altered);
+        assert!(xml.contains("<PosX>12,5</PosX>"), "{xml}");
+        assert!(xml.contains("<AngleYaw>-0,00023393621</AngleYaw>"), "{xml}");
+        assert!(
+            xml.contains("<?xml version=\"1.0\""),
+            "the declaration keeps its point"
+        );
+        let Response::Status(read) = Response::decode(&altered).unwrap().message else {
+            panic!("{xml}");
+        };
+        assert_eq!(read.motion_state, MotionState::SoftEmergencyStop);
+        assert!(read.pos_x.is_nan(), "a float with a comma is not reported");
+        assert_eq!(read.electricity, Some(87));
     }
 
     #[test]

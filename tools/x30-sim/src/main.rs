@@ -71,6 +71,10 @@ struct Cli {
     /// Leave every item but MotionState out of status answers.
     #[arg(long)]
     sparse_status: bool,
+    /// Write floats in answers with a decimal comma (`12,345678`), as a robot under a
+    /// locale such as de_DE would.
+    #[arg(long)]
+    decimal_comma: bool,
     /// XML declaration of answers.
     #[arg(long, value_enum, default_value_t = DeclarationArg::Double)]
     declaration: DeclarationArg,
@@ -155,6 +159,7 @@ impl Cli {
                 unknown_items: self.unknown_items,
                 unknown_pose: self.unknown_pose,
                 sparse_status: self.sparse_status,
+                decimal_comma: self.decimal_comma,
                 declaration: self.declaration.into(),
             },
             log_file: self.log.clone(),
