@@ -126,6 +126,11 @@ REAL = {
         ("ControlMode", "1"), ("OnDockState", "0")]),
     # A robot that reports less than the document lists: MotionState alone.
     "resp-1002-status-sparse": doc(1002, 1, "2024-11-19 10:42:07", [("MotionState", "6")]),
+    # A robot under a locale with a decimal comma, and other readings that cannot be read:
+    # each optional item counts as left out.
+    "resp-1002-status-unreadable": doc(1002, 1, "2024-11-19 10:42:07", [
+        ("MotionState", "6"), ("PosX", "12,345678"), ("PosY", "-nan(ind)"), ("PosZ", ""),
+        ("H", "4294967295"), ("Electricity", "87"), ("GaitState", "0x1")]),
     "req-1003-two-blocks-mapid": (
         DQ + "\n<PatrolDevice>\n  <Type>1003</Type>\n  <Command>1</Command>\n  <Time>2024-11-19 10:42:07</Time>\n"
         + "".join("  <Items>\n" + "".join(f"    <{k}>{v}</{k}>\n" for k, v in items) + "  </Items>\n"
