@@ -108,6 +108,41 @@ async fn type_0_answer_is_an_error_and_the_connection_stays_usable() {
     assert!(link.perception(TIMEOUT).await.is_ok());
 }
 
+/// A robot_server that reports many more items than the document lists, deeply indented:
+/// its 3.5 KiB status still fits the answer buffer and is read.
+#[tokio::test]
+async fn a_status_three_times_the_usual_size_is_read() {
+    let extra: String = (0..70)
+        .map(|i| format!("\t\t\t\t<VendorReading{i:02}>-1234.56789</VendorReading{i:02}>\r\n"))
+        .collect();
+    let body = format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\r\n<PatrolDevice>\r\n\t\t<Type>1002</Type>\r\n\
+         \t\t<Command>1</Command>\r\n\t\t<Time>2024-06-01 12:00:00</Time>\r\n\t\t<Items>\r\n\
+         {extra}\t\t\t\t<MotionState>6</MotionState>\r\n\t\t\t\t<Electricity>87</Electricity>\r\n\
+         \t\t</Items>\r\n</PatrolDevice>\r\n"
+    );
+    assert!(body.len() > 3500, "{} bytes", body.len());
+    let addr = peer(move |mut s| {
+        let mut d = FrameDecoder::new();
+        let (id, request) = read_request(&mut s, &mut d).unwrap();
+        assert_eq!(request, Request::Status);
+        let mut out = vec![0u8; body.len() + frame::HEADER_LEN];
+        let n = frame::encode(&mut out, id, body.as_bytes()).unwrap();
+        s.write_all(&out[..n]).unwrap();
+        thread::sleep(std::time::Duration::from_millis(200));
+    });
+    let mut link = connected(addr).await;
+    let status = link
+        .status(TIMEOUT)
+        .await
+        .expect("the large status is read");
+    assert_eq!(
+        (status.motion_state, status.electricity),
+        (MotionState::SoftEmergencyStop, Some(87))
+    );
+    assert_eq!(link.anomalies().stream_errors, 0);
+}
+
 #[tokio::test]
 async fn unknown_type_is_reported_without_desynchronising() {
     let addr = peer(|mut s| {

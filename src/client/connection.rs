@@ -14,9 +14,11 @@ use crate::proto::message::{
 };
 use crate::proto::outstanding::Outstanding;
 
-/// Frame buffer for answers: the largest, a real robot's 1002 answer with its extra items,
-/// is about 1.2 KiB.
-pub const RX_BUF: usize = 2048;
+/// Frame buffer for answers. The largest known, a real robot's 1002 answer with its extra
+/// items, is about 1.2 KiB; a frame that does not fit is skipped, and a status skipped every
+/// time would leave an e-stop unconfirmed, so there is room for a robot_server that adds
+/// as many items again, and more, or indents more deeply.
+pub const RX_BUF: usize = 4096;
 /// Frame buffer for requests: a one-point 1003 request, the largest the panel sends, is
 /// about 0.6 KiB.
 pub const TX_BUF: usize = 1024;
