@@ -143,6 +143,27 @@ async fn a_status_three_times_the_usual_size_is_read() {
     assert_eq!(link.anomalies().stream_errors, 0);
 }
 
+/// A status whose floats the robot wrote with a decimal comma is read, those items left
+/// out, and counted among the connection's anomalies.
+#[tokio::test]
+async fn a_status_with_unreadable_items_is_read_and_counted() {
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        let (id, _) = read_request(&mut s, &mut d).unwrap();
+        let body = b"<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2024-06-01 12:00:00</Time>\
+            <Items><MotionState>4</MotionState><PosX>1,5</PosX><Electricity>87</Electricity></Items></PatrolDevice>";
+        let mut out = vec![0u8; 512];
+        let n = frame::encode(&mut out, id, body).unwrap();
+        s.write_all(&out[..n]).unwrap();
+        thread::sleep(std::time::Duration::from_millis(200));
+    });
+    let mut link = connected(addr).await;
+    let status = link.status(TIMEOUT).await.expect("the status is read");
+    assert!(status.pos_x.is_nan());
+    assert_eq!(status.electricity, Some(87));
+    assert_eq!(link.anomalies().unreadable_items, 1);
+}
+
 #[tokio::test]
 async fn unknown_type_is_reported_without_desynchronising() {
     let addr = peer(|mut s| {

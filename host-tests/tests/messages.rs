@@ -317,9 +317,9 @@ fn status_missing_items_keeps_the_others() {
 
 /// A reading the panel cannot read is no reading: the robot's C library under a locale with
 /// a decimal comma, MSVC's NaN, an empty element, an element holding elements, an integer
-/// beyond 32 bits. Each such optional item is not reported and the rest of the status is
-/// read, by both readers; `MotionState` written so still refuses it, and a request item
-/// written so is refused.
+/// beyond 32 bits. Each such optional item is not reported, and named as unreadable, and
+/// the rest of the status is read, by both readers; `MotionState` written so still refuses
+/// it, and a request item written so is refused.
 #[test]
 fn an_unreadable_optional_item_in_an_answer_is_not_reported() {
     let status = |items: &str| {
@@ -336,11 +336,31 @@ fn an_unreadable_optional_item_in_an_answer_is_not_reported() {
     for decode in [Response::decode, Response::decode_general] {
         let Ok(Decoded {
             message: Response::Status(s),
+            unreadable: unread_items,
             ..
         }) = decode(unreadable.as_bytes())
         else {
             panic!("the status is refused");
         };
+        let names: Vec<String> = unread_items.names().map(|n| n.to_string()).collect();
+        assert_eq!(
+            names,
+            [
+                "PosX",
+                "PosY",
+                "PosZ",
+                "Roll",
+                "Pitch",
+                "H",
+                "Location",
+                "GaitState"
+            ],
+            "the items that could not be read, in the table's order"
+        );
+        assert_eq!(
+            unread_items.to_string(),
+            "PosX, PosY, PosZ, Roll, Pitch, H, Location, GaitState"
+        );
         assert_eq!(s.motion_state, MotionState::SoftEmergencyStop);
         let unread = [s.pos_x, s.pos_y, s.pos_z, s.roll, s.pitch];
         assert!(unread.iter().all(|f| f.is_nan()), "{unread:?}");
@@ -351,6 +371,8 @@ fn an_unreadable_optional_item_in_an_answer_is_not_reported() {
             "the items that could be read"
         );
     }
+    let whole = Response::decode(status("<MotionState>6</MotionState><PosX>1.5</PosX>").as_bytes());
+    assert!(whole.is_ok_and(|d| d.unreadable.is_empty()));
     assert_eq!(
         Response::decode(status("<MotionState>6,0</MotionState>").as_bytes()),
         Err(DecodeError::BadItem {

@@ -358,10 +358,12 @@ impl Message {
             Self::Request(_) => Request::decode(body).map(|d| Decoded {
                 time: d.time,
                 message: Self::Request(d.message),
+                unreadable: d.unreadable,
             }),
             Self::Response(_) => Response::decode(body).map(|d| Decoded {
                 time: d.time,
                 message: Self::Response(d.message),
+                unreadable: d.unreadable,
             }),
         }
     }
@@ -389,12 +391,13 @@ impl Message {
         matches!(self, Self::Request(Request::NavTask(_)))
     }
 
-    /// Checks that `body` decodes to `self` and `time`. Compared as Debug text, so that a
-    /// NaN reading in an answer equals itself.
+    /// Checks that `body` decodes to `self` and `time`, every item read. Compared as Debug
+    /// text, so that a NaN reading in an answer equals itself.
     fn check_decodes(&self, time: Timestamp, body: &[u8]) -> Result<(), TestCaseError> {
         let expected: Result<_, DecodeError> = Ok(Decoded {
             time,
             message: self.clone(),
+            unreadable: Unreadable::default(),
         });
         prop_assert_eq!(
             format!("{:?}", self.decode_like(body)),

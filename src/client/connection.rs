@@ -44,6 +44,9 @@ pub struct Anomalies {
     pub unsolicited: u32,
     /// Stream errors the frame decoder skipped past: garbage, bad headers, oversized frames.
     pub stream_errors: u32,
+    /// Answers with optional items the robot wrote in a form that cannot be read, each
+    /// read as left out.
+    pub unreadable_items: u32,
 }
 
 /// How many requests may wait for their answers on one connection. A stop path writes
@@ -520,6 +523,17 @@ impl<T: Transport> Connection<T> {
             self.answered_up_to = self.answered_up_to.max(Some(request.at));
             let result = match decoded {
                 Ok(decoded) => {
+                    if !decoded.unreadable.is_empty() {
+                        let count = self.anomalies.unreadable_items.saturating_add(1);
+                        self.anomalies.unreadable_items = count;
+                        if worth_logging(count) {
+                            warn!(
+                                "the robot wrote {} in a form that cannot be read, taken as \
+                                 not reported ({} answers so far)",
+                                decoded.unreadable, count
+                            );
+                        }
+                    }
                     self.clock.learn(decoded.time, Instant::now());
                     check_type(request.message_type, decoded.message)
                 }

@@ -192,8 +192,8 @@ pub trait ItemSet: Sized {
     /// Reads the items of one request block; unknown items are skipped, a missing required
     /// one is an error naming it.
     fn read_items(items: &mut Items<'_>) -> Result<Self, DecodeError> {
-        let (values, present) = read_values(items, Self::TABLE, Sender::Client)?;
-        Ok(Self::from_values(&values, present))
+        let block = read_values(items, Self::TABLE, Sender::Client)?;
+        Ok(Self::from_values(&block.values, block.present))
     }
 }
 
@@ -267,6 +267,16 @@ pub(crate) fn write_values(
     Ok(())
 }
 
+/// The items of one block, as [`read_values`] found them.
+pub(crate) struct Block {
+    /// The wire values, in table order.
+    pub values: Values,
+    /// Which items were read.
+    pub present: Present,
+    /// Which optional items of an answer were there but could not be read.
+    pub unreadable: Present,
+}
+
 /// Reads a block's items, by position in `table`, and which were found; unknown items are
 /// skipped, and a missing required one is an error naming it. Floats are read as `sender`
 /// may write them. One copy serves every table, so the values have room for the largest.
@@ -275,7 +285,7 @@ pub(crate) fn read_values(
     items: &mut Items<'_>,
     table: &Table,
     sender: Sender,
-) -> Result<(Values, Present), DecodeError> {
+) -> Result<Block, DecodeError> {
     let Table {
         spec,
         names,
@@ -287,6 +297,7 @@ pub(crate) fn read_values(
     // table, so where the search starts cannot change what it finds.
     let mut next = 0;
     let mut present: Present = 0;
+    let mut unreadable: Present = 0;
     loop {
         // The usual layout: the item the table lists next, written plainly. An integer's
         // text is short, so it is read in the pass that finds its end; a float's text is
@@ -311,7 +322,9 @@ pub(crate) fn read_values(
             }
             match items.next_plain(spec.name.as_bytes()) {
                 Some((item, true)) => {
-                    present |= u32::from(read_item(item.text, spec, sender, value)?) << next;
+                    let reading = read_item(item.text, spec, sender, value)?;
+                    present |= (reading & PRESENT) << next;
+                    unreadable |= (reading >> 1) << next;
                     next += 1;
                     continue;
                 }
@@ -336,12 +349,18 @@ pub(crate) fn read_values(
         };
         let known = index.and_then(|i| Some((i, spec.get(i)?, values.get_mut(i)?)));
         if let Some((index, spec, value)) = known {
-            present |= u32::from(read_item(item.text, spec, sender, value)?) << index;
+            let reading = read_item(item.text, spec, sender, value)?;
+            present |= (reading & PRESENT) << index;
+            unreadable |= (reading >> 1) << index;
             next = index + 1;
         }
     }
     match required & !present {
-        0 => Ok((values, present)),
+        0 => Ok(Block {
+            values,
+            present,
+            unreadable,
+        }),
         missing => {
             let first = spec.get(missing.trailing_zeros() as usize);
             Err(DecodeError::MissingItem(
@@ -351,28 +370,34 @@ pub(crate) fn read_values(
     }
 }
 
-/// Reads one item's text into `value` and returns whether the item is present. An answer's
-/// optional item that cannot be read (a float with a decimal comma, as a C library under
-/// some locales prints it; an empty element; an integer beyond 32 bits) is not present, as
-/// if the robot had left it out: one unreadable reading must not cost the panel the whole
-/// answer, and with a status the e-stop's confirmation. A required item, and any item of a
-/// request (which the robot acts on), must be read.
+/// Reads one item's text into `value`; returns whether the item is present (bit 0) or was
+/// there but could not be read (bit 1). An answer's optional item that cannot be read (a
+/// float with a decimal comma, as a C library under some locales prints it; an empty
+/// element; an integer beyond 32 bits) is not present, as if the robot had left it out: one
+/// unreadable reading must not cost the panel the whole answer, and with a status the
+/// e-stop's confirmation. A required item, and any item of a request (which the robot acts
+/// on), must be read.
 #[inline(always)]
 fn read_item(
     text: Option<&[u8]>,
     spec: &'static ItemSpec,
     sender: Sender,
     value: &mut u32,
-) -> Result<bool, DecodeError> {
+) -> Result<u32, DecodeError> {
     match parse_text(text, spec, sender) {
         Ok(bits) => {
             *value = bits;
-            Ok(true)
+            Ok(PRESENT)
         }
-        Err(_) if sender == Sender::Robot && !spec.required => Ok(false),
+        Err(_) if sender == Sender::Robot && !spec.required => Ok(UNREADABLE),
         Err(error) => Err(error),
     }
 }
+
+/// [`read_item`]'s answer for an item read.
+const PRESENT: u32 = 1;
+/// [`read_item`]'s answer for an item there but not read.
+const UNREADABLE: u32 = 2;
 
 /// Parses one item's text (`None`: it holds elements) as its spec says and its `sender` may
 /// write it, naming the item on failure.

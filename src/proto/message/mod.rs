@@ -211,6 +211,78 @@ pub struct Decoded<T> {
     pub time: Timestamp,
     /// The message.
     pub message: T,
+    /// The answer's optional items that were there but could not be read, which the
+    /// message has as left out; none for a request, which must be read whole.
+    pub unreadable: Unreadable,
+}
+
+/// Items an answer wrote that could not be read (a float with a decimal comma, an empty
+/// element, …), so that a reading shown as not reported can be told from one the robot
+/// left out.
+#[derive(Clone, Copy, Default)]
+pub struct Unreadable {
+    /// The table the mask refers to.
+    spec: &'static [ItemSpec],
+    /// Bit `i` for `spec[i]`.
+    mask: items::Present,
+}
+
+impl Unreadable {
+    /// Whether every item there was read.
+    pub fn is_empty(&self) -> bool {
+        self.mask == 0
+    }
+
+    /// The names of the items that could not be read, in the table's order.
+    pub fn names(&self) -> impl Iterator<Item = &'static ItemName> {
+        let mask = self.mask;
+        self.spec
+            .iter()
+            .enumerate()
+            .filter(move |(i, _)| mask >> i & 1 != 0)
+            .map(|(_, item)| &item.name)
+    }
+}
+
+/// Equal when they name the same items.
+impl PartialEq for Unreadable {
+    fn eq(&self, other: &Self) -> bool {
+        self.names().eq(other.names())
+    }
+}
+
+impl Eq for Unreadable {}
+
+/// The names, as a list.
+impl core::fmt::Debug for Unreadable {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_list().entries(self.names()).finish()
+    }
+}
+
+/// The names, separated by commas.
+impl core::fmt::Display for Unreadable {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        for (i, name) in self.names().enumerate() {
+            if i > 0 {
+                f.write_str(", ")?;
+            }
+            write!(f, "{name}")?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Unreadable {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        for (i, name) in self.names().enumerate() {
+            if i > 0 {
+                defmt::write!(f, ", ");
+            }
+            defmt::write!(f, "{}", name);
+        }
+    }
 }
 
 impl Request {
@@ -376,6 +448,7 @@ impl Request {
         Ok(Decoded {
             time: envelope.time,
             message,
+            unreadable: Unreadable::default(),
         })
     }
 }
@@ -452,9 +525,10 @@ impl Response {
             return Err(DecodeError::UnknownType(raw));
         }
         match (message, blocks) {
-            (Some(message), 1) => Ok(Decoded {
+            (Some((message, unreadable)), 1) => Ok(Decoded {
                 time: envelope.time,
                 message,
+                unreadable,
             }),
             _ => Err(DecodeError::ItemsBlocks { found: blocks }),
         }
@@ -466,7 +540,10 @@ impl Response {
     // by one call for every Type, with the Type's table, and only turned into its message
     // per Type: one call and one error path instead of eleven.
     #[inline(never)]
-    fn read_items(envelope: &Envelope, items: &mut Items<'_>) -> Result<Self, DecodeError> {
+    fn read_items(
+        envelope: &Envelope,
+        items: &mut Items<'_>,
+    ) -> Result<(Self, Unreadable), DecodeError> {
         let message_type = MessageType::from_raw(envelope.message_type);
         let table = match message_type {
             MessageType::Status => RobotStatus::TABLE,
@@ -481,9 +558,13 @@ impl Response {
             MessageType::RequestError => RequestError::TABLE,
             MessageType::Unknown(raw) => return Err(DecodeError::UnknownType(raw)),
         };
-        let (values, present) = read_values(items, table, Sender::Robot)?;
-        let values = &values;
-        Ok(match message_type {
+        let block = read_values(items, table, Sender::Robot)?;
+        let (values, present) = (&block.values, block.present);
+        let unreadable = Unreadable {
+            spec: table.spec,
+            mask: block.unreadable,
+        };
+        let message = match message_type {
             MessageType::Status => Self::Status(ItemSet::from_values(values, present)),
             MessageType::NavTask => Self::NavResult(ItemSet::from_values(values, present)),
             MessageType::CancelNav => Self::CancelNav(ItemSet::from_values(values, present)),
@@ -501,7 +582,8 @@ impl Response {
             MessageType::Relocalize => Self::Relocalize(ItemSet::from_values(values, present)),
             MessageType::RequestError => Self::RequestError(ItemSet::from_values(values, present)),
             MessageType::Unknown(raw) => return Err(DecodeError::UnknownType(raw)),
-        })
+        };
+        Ok((message, unreadable))
     }
 }
 

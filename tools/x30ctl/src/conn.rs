@@ -23,7 +23,9 @@ use x30_panel::proto::codes::MessageType;
 use x30_panel::proto::frame::{
     self, EncodeError, FrameDecoder, FrameError, HEADER_LEN, MessageIds, Reserved,
 };
-use x30_panel::proto::message::{DecodeError, Decoded, MAX_REQUEST_LEN, Request, Response};
+use x30_panel::proto::message::{
+    DecodeError, Decoded, MAX_REQUEST_LEN, Request, Response, Unreadable,
+};
 use x30_panel::proto::outstanding::Outstanding;
 use x30_panel::proto::time::Timestamp;
 use x30_panel::proto::xml::writer::WriteError;
@@ -135,6 +137,9 @@ pub struct Connection {
     /// Message IDs of requests given up on (not outstanding): their late answers are
     /// expected, so they are skipped without a warning.
     abandoned: Vec<u16>,
+    /// The items last warned about as unreadable: `watch` warns again only when they
+    /// change.
+    unreadable: Unreadable,
 }
 
 /// Resolves `HOST:PORT` (or `HOST`, meaning port 30000).
@@ -238,6 +243,7 @@ impl Connection {
                         outstanding: Outstanding::new(),
                         early: Vec::new(),
                         abandoned: Vec::new(),
+                        unreadable: Unreadable::default(),
                     });
                 }
                 Err(e) => last = Some(e),
@@ -603,6 +609,15 @@ impl Connection {
                 detail: format!("the answer has Type {}", got.raw()),
             })
         } else {
+            if d.unreadable != self.unreadable && !d.unreadable.is_empty() {
+                warn(&format!(
+                    "the robot wrote {} in a form that cannot be read (Type {}, message ID \
+                     {id}); shown as not reported",
+                    d.unreadable,
+                    got.raw()
+                ));
+            }
+            self.unreadable = d.unreadable;
             Ok(Answer {
                 message_id: id,
                 time: d.time,

@@ -219,6 +219,26 @@ fn a_status_with_motion_state_alone_is_shown_with_the_rest_not_reported() {
 }
 
 #[test]
+fn a_status_written_with_decimal_commas_is_shown_with_a_warning_naming_the_items() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        decimal_comma: true,
+        ..Faults::default()
+    });
+    // The simulated robot stands at the origin: only its total odometry and the map's
+    // resolution have a fraction, and so a comma.
+    x30ctl(&sim, &["status"])
+        .expect_code(0)
+        .stdout_has("motion state   force-control stand (3)")
+        .stdout_has("position       x 0 m, y 0 m, z 0 m")
+        .stdout_has("0 km since power-on, unknown total")
+        .stderr_has(
+            "warning: the robot wrote SumOdom, Res in a form that cannot be read (Type 1002, \
+             message ID 0); shown as not reported",
+        );
+}
+
+#[test]
 fn every_declaration_style_decodes() {
     let sim = sim(1.0);
     for declaration in [Declaration::Single, Declaration::None, Declaration::Double] {
