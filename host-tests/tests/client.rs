@@ -108,6 +108,19 @@ async fn type_0_answer_is_an_error_and_the_connection_stays_usable() {
     assert!(link.perception(TIMEOUT).await.is_ok());
 }
 
+/// A peer that answers the first request, a status poll, with the body `body`.
+fn answering_a_status_with(body: Vec<u8>) -> std::net::SocketAddr {
+    peer(move |mut s| {
+        let mut d = FrameDecoder::new();
+        let (id, request) = read_request(&mut s, &mut d).unwrap();
+        assert_eq!(request, Request::Status);
+        let mut out = vec![0u8; body.len() + frame::HEADER_LEN];
+        let n = frame::encode(&mut out, id, &body).unwrap();
+        s.write_all(&out[..n]).unwrap();
+        thread::sleep(std::time::Duration::from_millis(200));
+    })
+}
+
 /// A robot_server that reports many more items than the document lists, deeply indented:
 /// its 3.5 KiB status still fits the answer buffer and is read.
 #[tokio::test]
@@ -122,16 +135,7 @@ async fn a_status_three_times_the_usual_size_is_read() {
          \t\t</Items>\r\n</PatrolDevice>\r\n"
     );
     assert!(body.len() > 3500, "{} bytes", body.len());
-    let addr = peer(move |mut s| {
-        let mut d = FrameDecoder::new();
-        let (id, request) = read_request(&mut s, &mut d).unwrap();
-        assert_eq!(request, Request::Status);
-        let mut out = vec![0u8; body.len() + frame::HEADER_LEN];
-        let n = frame::encode(&mut out, id, body.as_bytes()).unwrap();
-        s.write_all(&out[..n]).unwrap();
-        thread::sleep(std::time::Duration::from_millis(200));
-    });
-    let mut link = connected(addr).await;
+    let mut link = connected(answering_a_status_with(body.into_bytes())).await;
     let status = link
         .status(TIMEOUT)
         .await
@@ -147,17 +151,9 @@ async fn a_status_three_times_the_usual_size_is_read() {
 /// out, and counted among the connection's anomalies.
 #[tokio::test]
 async fn a_status_with_unreadable_items_is_read_and_counted() {
-    let addr = peer(|mut s| {
-        let mut d = FrameDecoder::new();
-        let (id, _) = read_request(&mut s, &mut d).unwrap();
-        let body = b"<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2024-06-01 12:00:00</Time>\
-            <Items><MotionState>4</MotionState><PosX>1,5</PosX><Electricity>87</Electricity></Items></PatrolDevice>";
-        let mut out = vec![0u8; 512];
-        let n = frame::encode(&mut out, id, body).unwrap();
-        s.write_all(&out[..n]).unwrap();
-        thread::sleep(std::time::Duration::from_millis(200));
-    });
-    let mut link = connected(addr).await;
+    let body = b"<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2024-06-01 12:00:00</Time>\
+        <Items><MotionState>4</MotionState><PosX>1,5</PosX><Electricity>87</Electricity></Items></PatrolDevice>";
+    let mut link = connected(answering_a_status_with(body.to_vec())).await;
     let status = link.status(TIMEOUT).await.expect("the status is read");
     assert!(status.pos_x.is_nan());
     assert_eq!(status.electricity, Some(87));
