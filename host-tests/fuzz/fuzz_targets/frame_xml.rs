@@ -134,9 +134,11 @@ fn check_body<T: Codec>(body: &[u8]) {
     };
     let first = &first[..n];
     let again = T::decode(first);
-    // Debug text, so that a NaN an answer reports equals itself.
+    // Debug text, so that a NaN an answer reports equals itself; the message and `Time`
+    // only, since items that could not be read are written as left out.
+    let read = |d: &Decoded<T>| format!("{:?}", (&d.time, &d.message));
     assert!(
-        format!("{:?}", again.as_ref()) == format!("{:?}", Ok::<_, ()>(&decoded)),
+        again.as_ref().map(read).ok() == Some(read(&decoded)),
         "decoded {:?} from {:?}, re-encoded as {:?}, which decodes as {:?}",
         decoded,
         shown(),

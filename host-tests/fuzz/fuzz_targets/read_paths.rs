@@ -67,9 +67,11 @@ fn check_direction<M: Debug, E: Debug, W: Debug>(
         let mut out = vec![0u8; ENCODE_BUF];
         let n = encode(&decoded.message, &decoded.time, &mut out)
             .unwrap_or_else(|e| panic!("a decoded {what} does not encode: {e:?}"));
+        // The message and `Time` only: items that could not be read are written as left
+        // out, so the second reading has none to name.
         assert_eq!(
-            format!("{:?}", decode(&out[..n])),
-            format!("{:?}", Ok::<_, ()>(decoded)),
+            format!("{:?}", decode(&out[..n]).map(|d| (d.time, d.message))),
+            format!("{:?}", Ok::<_, ()>((decoded.time, decoded.message))),
             "{what}: round trip"
         );
     }
