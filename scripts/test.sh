@@ -22,6 +22,7 @@ cargo clippy --release --lib -- -D warnings
 cargo clippy --release --lib --features defmt,vendor-extensions -- -D warnings
 cargo clippy --release --lib --features serde,vendor-extensions -- -D warnings
 cargo clippy --release -p x30-codec-size --features robot-side -- -D warnings
+cargo clippy --release -p x30-codec-size --features robot-side,compact -- -D warnings
 
 step "clippy: host"
 (cd tools && cargo clippy --workspace --all-targets -- -D warnings)
@@ -40,6 +41,10 @@ scripts/qemu-test.sh
 
 step "host tests of the core, with the firmware's protocol surface (no vendor-extensions)"
 (cd tools && cargo test -p x30-host-tests --all-targets)
+
+step "host tests of the codec, compact build (its fast paths left out)"
+(cd tools && cargo test -p x30-host-tests --features compact --test messages --test xml \
+    --test number --test frame --test properties --test errors --test codes --test time)
 
 step "host tests of the tools (with the end-to-end tests: the QEMU firmware against x30-sim)"
 (cd tools && cargo test --workspace --all-targets --exclude x30-host-tests --exclude x30-fuzz)

@@ -984,6 +984,14 @@ fn summary(f: &Fixtures, allocs: &AllocationReport, quick: bool) {
             .join(" ")
     );
     println!("(machine: {})", machine());
+    println!(
+        "(codec build: {})",
+        if cfg!(feature = "compact") {
+            "compact, its fast paths left out"
+        } else {
+            "default, with its fast paths"
+        }
+    );
 }
 
 /// The processor this run measured, from `/proc/cpuinfo`: the ratios differ between

@@ -583,7 +583,10 @@ impl Decimal {
     /// Reads the syntax of a float: sign, digits and '.', optional exponent.
     fn scan(text: &[u8]) -> Result<Self, NumberError> {
         let (negative, body) = split_sign(text)?;
-        if let Some(decimal) = Self::scan_short(negative, body) {
+        // The shortcut reads the usual text faster; a `compact` build leaves it out.
+        if !cfg!(feature = "compact")
+            && let Some(decimal) = Self::scan_short(negative, body)
+        {
             return Ok(decimal);
         }
         let mut decimal = Decimal {
@@ -800,6 +803,10 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
 /// a cold path that returns only the digits).
 #[inline(never)]
 pub(crate) fn write_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
+    // A `compact` build keeps one copy: every float goes the general way.
+    if cfg!(feature = "compact") {
+        return write_inexact(value, out);
+    }
     let bits = value.to_bits() & !(1 << 31);
     // Zero's window is not exact either (its scale is out of range), so zero goes to
     // `write_inexact` too.

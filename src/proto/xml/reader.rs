@@ -142,6 +142,12 @@ impl<'a> Tokenizer<'a> {
         }
     }
 
+    /// Whether the shortcuts may be taken: never in a `compact` build, so that their code is
+    /// left out of it.
+    fn shortcuts_on(&self) -> bool {
+        !cfg!(feature = "compact") && self.shortcut
+    }
+
     /// Byte offset of the next token.
     pub fn offset(&self) -> usize {
         self.pos
@@ -228,7 +234,7 @@ impl<'a> Tokenizer<'a> {
     // reader's loop slower by several percent (measured).
     #[inline(never)]
     pub fn plain_root(&mut self, name: &'static [u8]) -> bool {
-        if !self.shortcut || self.place != Place::Prolog || self.fragment {
+        if !self.shortcuts_on() || self.place != Place::Prolog || self.fragment {
             return false;
         }
         let rest = self.rest();
@@ -285,7 +291,7 @@ impl<'a> Tokenizer<'a> {
     pub fn plain_end(&mut self, name: &[u8]) -> bool {
         let open = self.depth.checked_sub(1).and_then(|d| self.open.get(d));
         let is_open = open.is_some_and(|open| same_name(open, name));
-        if !self.shortcut || self.place != Place::Root || !is_open {
+        if !self.shortcuts_on() || self.place != Place::Root || !is_open {
             return false;
         }
         let rest = self.rest();
@@ -309,7 +315,7 @@ impl<'a> Tokenizer<'a> {
     fn simple_start(&self) -> Option<(usize, &'a [u8])> {
         // Text is only allowed inside an element (or a fragment).
         let inside = self.place == Place::Root && (self.depth > 0 || self.fragment);
-        if !self.shortcut || !inside || self.depth >= MAX_DEPTH {
+        if !self.shortcuts_on() || !inside || self.depth >= MAX_DEPTH {
             return None;
         }
         let rest = self.rest();
