@@ -338,7 +338,8 @@ pub(crate) fn read_values(
             break;
         };
         let item = item?;
-        if !names.may_hold(item.name) {
+        // The filter only saves time; a `compact` build searches the table for every name.
+        if !cfg!(feature = "compact") && !names.may_hold(item.name) {
             continue;
         }
         let matches = |s: &ItemSpec| item.name.eq_ignore_ascii_case(s.name.as_bytes());

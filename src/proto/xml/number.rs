@@ -470,7 +470,10 @@ impl Approx {
     /// of usual float text, `-19 <= e <= 0` (a fraction's digits), are one entry of
     /// [`POW10_NEGATIVE`] instead, within `2^-64`, which saves the product.
     fn pow10(e: i32) -> Self {
-        if let Some(&m) = usize::try_from(-e).ok().and_then(|k| POW10_NEGATIVE.get(k)) {
+        // A `compact` build takes every power from the two tables below.
+        if !cfg!(feature = "compact")
+            && let Some(&m) = usize::try_from(-e).ok().and_then(|k| POW10_NEGATIVE.get(k))
+        {
             return Approx {
                 m,
                 e: e + log2_pow5(e) - 63,
@@ -897,7 +900,13 @@ impl Window {
         let estimate = (bit_top * 78_913) >> 18;
         let mut scale = 8 - estimate;
         // `above`: the half-step to the next float up, in the same units as `y`.
-        let (mut y, mut above, exact) = match exact_fixed(x, scale) {
+        // A `compact` build scales every float the approximate way, checked where it matters.
+        let exact_window = if cfg!(feature = "compact") {
+            None
+        } else {
+            exact_fixed(x, scale)
+        };
+        let (mut y, mut above, exact) = match exact_window {
             Some((y, above)) => (y, above, true),
             None if exact_only => return None,
             None => {
@@ -1146,8 +1155,9 @@ const ZERO_DIGITS: u64 = u64::from_le_bytes([b'0'; 8]);
 /// digits in all lanes at once, by multiplications that divide exactly in the lanes'
 /// ranges. Inlined into both number writers: a call made the float writer save and restore
 /// registers around it, 3 % of the 1002 answer's encode, which is worth the 164 bytes of
-/// flash of the second copy.
-#[inline(always)]
+/// flash of the second copy; a `compact` build keeps one.
+#[cfg_attr(not(feature = "compact"), inline(always))]
+#[cfg_attr(feature = "compact", inline(never))]
 fn eight_ascii(v: u32) -> u64 {
     // Two lanes of 32 bits: the top and bottom four digits.
     let x = u64::from(v / 10_000) | u64::from(v % 10_000) << 32;
