@@ -8,7 +8,8 @@
 //! (`<Name>text</Name>`, `<Items>`, `</Items>`) are read by the tokenizer's shortcuts
 //! ([`Tokenizer::plain_root`], [`Tokenizer::simple_element`] and their siblings) without
 //! making tokens; anything else goes token by token. The shortcuts yield exactly what the tokens
-//! would, which [`read_document_general`] (every shortcut off) lets tests check.
+//! would, which [`read_document_general`] (every shortcut off) lets tests check. A build
+//! with the `compact` feature leaves the shortcuts out, for their flash.
 
 pub mod number;
 pub mod reader;
