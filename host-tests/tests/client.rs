@@ -69,6 +69,30 @@ async fn answer_is_matched_by_message_id_and_other_frames_are_skipped() {
     assert_eq!(anomalies.stream_errors, 1);
 }
 
+/// An empty frame carrying the request's message ID (a keep-alive that happens to share it)
+/// is passed over, and the answer after it is the request's.
+#[tokio::test]
+async fn an_empty_frame_is_no_answer_whatever_its_message_id() {
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        let (id, _) = read_request(&mut s, &mut d).unwrap();
+        let mut bytes = vec![0u8; frame::HEADER_LEN];
+        frame::encode(&mut bytes, id, &[]).unwrap();
+        s.write_all(&bytes).unwrap();
+        thread::sleep(std::time::Duration::from_millis(50));
+        s.write_all(&answer(id, &perception())).unwrap();
+        thread::sleep(std::time::Duration::from_millis(200));
+    });
+    let mut link = connected(addr).await;
+    let p = link
+        .perception(TIMEOUT)
+        .await
+        .expect("the answer after the empty frame is read");
+    assert_eq!(p.obs_state, ObsState::ObstacleAhead);
+    let anomalies = link.anomalies();
+    assert_eq!((anomalies.empty_frames, anomalies.unsolicited), (1, 0));
+}
+
 #[tokio::test]
 async fn message_ids_count_up_per_request() {
     let addr = peer(|mut s| {

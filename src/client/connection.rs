@@ -47,6 +47,8 @@ pub struct Anomalies {
     /// Answers with optional items the robot wrote in a form that cannot be read, each
     /// read as left out.
     pub unreadable_items: u32,
+    /// Frames with an empty body (a keep-alive, whatever its message ID), passed over.
+    pub empty_frames: u32,
 }
 
 /// How many requests may wait for their answers on one connection. A stop path writes
@@ -496,6 +498,17 @@ impl<T: Transport> Connection<T> {
                     continue;
                 }
             };
+            // A frame with no body answers nothing: a server may send one to keep the
+            // connection alive, with any message ID. Taken as an answer, it would fail the
+            // request whose ID it carries, and the real answer after it would be dropped.
+            if frame.asdu.is_empty() {
+                let count = self.anomalies.empty_frames.saturating_add(1);
+                self.anomalies.empty_frames = count;
+                if worth_logging(count) {
+                    warn!("skipped a frame with no body ({} so far)", count);
+                }
+                continue;
+            }
             let decoded = Response::decode(frame.asdu);
             let request_error = matches!(
                 decoded,

@@ -140,6 +140,9 @@ pub struct Connection {
     /// The items last warned about as unreadable: `watch` warns again only when they
     /// change.
     unreadable: Unreadable,
+    /// Whether a frame with no body has been warned about: a keep-alive comes again and
+    /// again, and is told once.
+    warned_empty: bool,
 }
 
 /// Resolves `HOST:PORT` (or `HOST`, meaning port 30000).
@@ -244,6 +247,7 @@ impl Connection {
                         early: Vec::new(),
                         abandoned: Vec::new(),
                         unreadable: Unreadable::default(),
+                        warned_empty: false,
                     });
                 }
                 Err(e) => last = Some(e),
@@ -494,6 +498,19 @@ impl Connection {
     ) -> Option<Result<Answer, Error>> {
         while let Some(item) = self.decoder.decode() {
             let (answered, result) = match item {
+                // A frame with no body answers nothing, whatever its message ID: a server
+                // may send one to keep the connection alive, and the answer comes after it.
+                Ok(frame) if frame.asdu.is_empty() => {
+                    if !self.warned_empty {
+                        self.warned_empty = true;
+                        warn(&format!(
+                            "passing over frames with no body (the first had message ID {}), \
+                             which answer nothing",
+                            frame.message_id
+                        ));
+                    }
+                    continue;
+                }
                 Ok(frame) => {
                     let id = frame.message_id;
                     let decoded = Response::decode(frame.asdu);

@@ -384,6 +384,29 @@ fn unsolicited_and_garbled_frames_before_the_answer_are_skipped() {
         .stderr_has("ignored an unsolicited Type 2001 frame with message ID 1");
 }
 
+/// Frames with no body (keep-alives), one of them with the request's message ID, answer
+/// nothing: the answer after them is read, and they are told once.
+#[test]
+fn empty_frames_before_the_answer_are_passed_over_whatever_their_message_id() {
+    let addr = fake_robot(|id| {
+        let mut bytes = Vec::new();
+        for keep_alive_id in [0, id, 0] {
+            let mut empty = vec![0; HEADER_LEN];
+            frame::encode(&mut empty, keep_alive_id, &[]).expect("frame");
+            bytes.extend_from_slice(&empty);
+        }
+        let mut real = battery();
+        real.battery_level = 52;
+        bytes.extend_from_slice(&encode_response(id, &Response::Battery(real)));
+        bytes
+    });
+    let run = x30ctl_raw(&["--robot", &addr, "battery"]);
+    run.expect_code(0)
+        .stdout_has("level          52 %")
+        .stderr_has("passing over frames with no body (the first had message ID 0)");
+    assert_eq!(run.stderr.matches("no body").count(), 1, "{}", run.stderr);
+}
+
 #[test]
 fn motion_answer_without_its_value_echo_is_read() {
     let addr = fake_robot(|id| {
