@@ -764,7 +764,7 @@ async fn with_faulty_robot(
 
 #[tokio::test(flavor = "current_thread")]
 async fn every_fault_injection_option_is_survived() {
-    let options: [(&str, Faults); 10] = [
+    let options: [(&str, Faults); 11] = [
         (
             "delay",
             Faults {
@@ -776,6 +776,13 @@ async fn every_fault_injection_option_is_survived() {
             "garbage",
             Faults {
                 garbage: true,
+                ..Default::default()
+            },
+        ),
+        (
+            "empty frames sharing the answers' message IDs",
+            Faults {
+                empty_frames: true,
                 ..Default::default()
             },
         ),

@@ -79,6 +79,9 @@ pub struct Faults {
     pub hang_up_on: Vec<i32>,
     /// Put [`GARBAGE`] before each answer frame, in the same write.
     pub garbage: bool,
+    /// Put a frame with an empty body before each answer frame, in the same write, with
+    /// the answer's message ID: a keep-alive that happens to share it.
+    pub empty_frames: bool,
     /// Fill the reserved bytes of each answer's header with [`RESERVED_BYTES`]: a
     /// `robot_server` whose software uses them.
     pub reserved_bytes: bool,
@@ -227,13 +230,21 @@ pub fn alter_header(frame: &mut [u8], faults: &Faults) {
 }
 
 /// The bytes of one write: the frames in order (answers, and the extra frames of
-/// [`Faults::merge`]), each preceded by [`GARBAGE`] if asked.
+/// [`Faults::merge`]), each preceded by [`GARBAGE`] and by an empty frame with its message
+/// ID ([`Faults::empty_frames`]) if asked.
 pub fn wire_bytes(frames: &[Vec<u8>], faults: &Faults) -> Vec<u8> {
     let garbage = if faults.garbage { GARBAGE.len() } else { 0 };
-    let mut out = Vec::with_capacity(frames.iter().map(|f| garbage + f.len()).sum());
+    let empty = if faults.empty_frames { HEADER_LEN } else { 0 };
+    let mut out = Vec::with_capacity(frames.iter().map(|f| garbage + empty + f.len()).sum());
     for frame in frames {
         if faults.garbage {
             out.extend_from_slice(GARBAGE);
+        }
+        if let (true, Some(header)) = (faults.empty_frames, frame.get(..HEADER_LEN)) {
+            // The same header with a zero length: sync, length, message ID, reserved bytes.
+            out.extend_from_slice(header.get(..4).unwrap_or_default());
+            out.extend_from_slice(&[0, 0]);
+            out.extend_from_slice(header.get(6..).unwrap_or_default());
         }
         out.extend_from_slice(frame);
     }
@@ -621,6 +632,20 @@ mod tests {
             robot.decode(),
             Some(Err(FrameError::BadReserved { message_id: 7 }))
         );
+    }
+
+    #[test]
+    fn an_empty_frame_with_the_same_message_id_precedes_each_frame() {
+        let faults = Faults {
+            empty_frames: true,
+            ..Faults::default()
+        };
+        let mut frame = vec![0; HEADER_LEN + 2];
+        let n = x30_panel::proto::frame::encode(&mut frame, 0x1234, b"AB").unwrap();
+        let bytes = wire_bytes(&[frame[..n].to_vec()], &faults);
+        let mut empty = vec![0; HEADER_LEN];
+        x30_panel::proto::frame::encode(&mut empty, 0x1234, &[]).unwrap();
+        assert_eq!(bytes, [&empty[..], &frame[..n]].concat());
     }
 
     #[test]

@@ -48,6 +48,10 @@ struct Cli {
     /// Send a few garbage bytes (no sync sequence) before each answer frame.
     #[arg(long)]
     garbage: bool,
+    /// Send a frame with an empty body, with the answer's message ID, before each answer
+    /// frame (a keep-alive that shares the ID).
+    #[arg(long)]
+    empty_frames: bool,
     /// Fill the 8 reserved bytes of each answer's header (zeros in the document) with
     /// non-zero bytes.
     #[arg(long)]
@@ -152,6 +156,7 @@ impl Cli {
                 drop_after: self.drop_after,
                 hang_up_on: self.hang_up_on.clone(),
                 garbage: self.garbage,
+                empty_frames: self.empty_frames,
                 reserved_bytes: self.reserved_bytes,
                 split: self.split.and_then(|n| usize::try_from(n).ok()),
                 merge: self.merge,
