@@ -822,7 +822,8 @@ pub(crate) fn write_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
     }
 }
 
-/// [`write_finite`] for zero and for a float whose window is not exact.
+/// [`write_finite`] for zero and for a float whose window is not exact (for every float in a
+/// `compact` build).
 #[cold]
 #[inline(never)]
 fn write_inexact(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
