@@ -487,9 +487,7 @@ impl<T: Transport> Connection<T> {
             let frame = match item {
                 Ok(frame) => frame,
                 Err(e) => {
-                    let count = self.anomalies.stream_errors.saturating_add(1);
-                    self.anomalies.stream_errors = count;
-                    if worth_logging(count) {
+                    if let Some(count) = count_one(&mut self.anomalies.stream_errors) {
                         warn!(
                             "skipped bytes on the connection: {:?} ({} so far)",
                             e, count
@@ -502,9 +500,7 @@ impl<T: Transport> Connection<T> {
             // connection alive, with any message ID. Taken as an answer, it would fail the
             // request whose ID it carries, and the real answer after it would be dropped.
             if frame.asdu.is_empty() {
-                let count = self.anomalies.empty_frames.saturating_add(1);
-                self.anomalies.empty_frames = count;
-                if worth_logging(count) {
+                if let Some(count) = count_one(&mut self.anomalies.empty_frames) {
                     warn!("skipped a frame with no body ({} so far)", count);
                 }
                 continue;
@@ -520,9 +516,7 @@ impl<T: Transport> Connection<T> {
             let Some((message_id, request)) =
                 self.outstanding.answer(frame.message_id, request_error)
             else {
-                let count = self.anomalies.unsolicited.saturating_add(1);
-                self.anomalies.unsolicited = count;
-                if worth_logging(count) {
+                if let Some(count) = count_one(&mut self.anomalies.unsolicited) {
                     warn!(
                         "skipped a frame for message {} ({} so far)",
                         frame.message_id, count
@@ -536,16 +530,14 @@ impl<T: Transport> Connection<T> {
             self.answered_up_to = self.answered_up_to.max(Some(request.at));
             let result = match decoded {
                 Ok(decoded) => {
-                    if !decoded.unreadable.is_empty() {
-                        let count = self.anomalies.unreadable_items.saturating_add(1);
-                        self.anomalies.unreadable_items = count;
-                        if worth_logging(count) {
-                            warn!(
-                                "the robot wrote {} in a form that cannot be read, taken as \
-                                 not reported ({} answers so far)",
-                                decoded.unreadable, count
-                            );
-                        }
+                    if !decoded.unreadable.is_empty()
+                        && let Some(count) = count_one(&mut self.anomalies.unreadable_items)
+                    {
+                        warn!(
+                            "the robot wrote {} in a form that cannot be read, taken as \
+                             not reported ({} answers so far)",
+                            decoded.unreadable, count
+                        );
                     }
                     self.clock.learn(decoded.time, Instant::now());
                     check_type(request.message_type, decoded.message)
@@ -697,10 +689,11 @@ fn unexpected(expected: MessageType, got: &Response) -> ClientError {
     }
 }
 
-/// Whether the `count`th anomaly of a kind is logged: the first, the second, the fourth and
-/// so on. A robot that pushes junk all the time would otherwise flood the log, and on a
-/// board whose log output blocks (QEMU's semihosting) take the CPU from the stop paths; the
-/// [`Anomalies`] counts keep the total.
-fn worth_logging(count: u32) -> bool {
-    count.is_power_of_two()
+/// Counts one more anomaly of a kind in `counter`, and returns the new count if this one is
+/// logged: the first, the second, the fourth and so on. A robot that pushes junk all the
+/// time would otherwise flood the log, and on a board whose log output blocks (QEMU's
+/// semihosting) take the CPU from the stop paths; the [`Anomalies`] counts keep the total.
+fn count_one(counter: &mut u32) -> Option<u32> {
+    *counter = counter.saturating_add(1);
+    counter.is_power_of_two().then_some(*counter)
 }
