@@ -7,8 +7,8 @@
 #   scripts/fuzz.sh [SECONDS] [extra libFuzzer flags...]
 #
 # The targets: frame_xml (frame decoder and both message decoders on a byte stream) and
-# read_paths (the reader's layout shortcuts against its general path, and
-# decode(encode(x)) == x). Each runs for SECONDS, default 30. The fuzzer works on a copy of
+# read_paths (the reader's layout shortcuts against its general path, the answers' writer
+# against its general path, and decode(encode(x)) == x). Each runs for SECONDS, default 30. The fuzzer works on a copy of
 # the committed seed corpus (host-tests/fuzz/corpus/<target>/, written by gen_corpus.py) in
 # a temporary directory, so the corpus only changes when someone copies an input into it on
 # purpose. Crashing inputs are written to host-tests/fuzz/artifacts/<target>/ (ignored by

@@ -10,6 +10,8 @@
 //!   valid documents; whatever they accept re-encodes to a document that decodes the same.
 //! - The decoders tolerate the layouts real traffic uses: either declaration or none, any
 //!   indentation, comments inside `<Items>`, elements in any order.
+//! - `Response::encode` writes exactly what `Response::encode_general` writes, into buffers
+//!   of every size.
 //! - On all of those documents, the reader's shortcuts for the usual layout change nothing:
 //!   `decode` returns exactly what `decode_general` returns, and `read_document` hands out
 //!   exactly what `read_document_general` hands out.
@@ -999,6 +1001,30 @@ proptest! {
         let body = message.encode_to_vec(&time)?;
         check_shortcuts(&body)?;
         message.check_decodes(time, &body)?;
+    }
+
+    /// `Response::encode`, which writes each answer item by code of its own in the default
+    /// build, gives what `Response::encode_general` (through the item tables) gives: the
+    /// same bytes, or the same error, into a buffer of any size, also one that ends in the
+    /// middle of an item line.
+    #[test]
+    fn answers_are_written_alike_both_ways(
+        response in response(),
+        time in timestamp(),
+        room in any::<Index>(),
+    ) {
+        let mut whole = vec![0u8; BODY_BUF];
+        let len = response.encode_general(&time, &mut whole)
+            .map_err(|e| TestCaseError::fail(format!("{response:?} does not encode: {e:?}")))?;
+        // Sizes up to the text's length and a little past it, where the item lines are
+        // written through a window that must fit the buffer.
+        let size = room.index(len + 128);
+        let (mut straight, mut general) = (vec![0u8; size], vec![0u8; size]);
+        let written = response.encode(&time, &mut straight);
+        prop_assert_eq!(written, response.encode_general(&time, &mut general), "size {}", size);
+        if let Ok(n) = written {
+            prop_assert_eq!(text(&straight[..n]), text(&general[..n]));
+        }
     }
 }
 

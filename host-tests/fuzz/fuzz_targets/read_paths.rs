@@ -9,7 +9,9 @@
 //! - `Request::decode` and `Response::decode` return exactly what their `decode_general`
 //!   twins return (message, `Time` or error);
 //! - every message a decoder accepts encodes, and decoding that encoding gives the same
-//!   message and `Time` again.
+//!   message and `Time` again;
+//! - an answer encodes to the same bytes through `Response::encode` (each item by code of
+//!   its own) and `Response::encode_general` (through the item tables).
 //!
 //! Build and run with `scripts/fuzz.sh`.
 #![no_main]
@@ -45,6 +47,22 @@ fuzz_target!(|body: &[u8]| {
         Response::decode_general,
         Response::encode,
     );
+    if let Ok(decoded) = Response::decode(body) {
+        let (mut straight, mut general) = (vec![0u8; ENCODE_BUF], vec![0u8; ENCODE_BUF]);
+        let written = decoded.message.encode(&decoded.time, &mut straight);
+        assert_eq!(
+            written,
+            decoded.message.encode_general(&decoded.time, &mut general),
+            "response: encode against encode_general"
+        );
+        if let Ok(n) = written {
+            assert_eq!(
+                straight[..n],
+                general[..n],
+                "response: encode against encode_general"
+            );
+        }
+    }
 });
 
 /// The invariants for one direction: `decode` gives what `decode_general` gives (compared

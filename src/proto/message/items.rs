@@ -197,6 +197,15 @@ pub trait ItemSet: Sized {
     }
 }
 
+/// An answer's items, which the default build writes each by code of its own
+/// ([`Writing::Straight`]). A request's are written through their table in every build: the
+/// panel writes them, and there the flash counts more than the time.
+pub trait AnswerItems: ItemSet {
+    /// Writes the present items, each by code of its own in which its name and kind are
+    /// constants: no table is read and nothing is converted to wire values first.
+    fn write_items(&self, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError>;
+}
+
 /// A quick test that a name is none of a table's: a Bloom filter over the names' length,
 /// first and last letter, two bits of 128 per name. An unknown item (a real robot sends
 /// several in each status answer) mostly misses one of its bits, and then needs no search
@@ -245,6 +254,26 @@ impl NameFilter {
     }
 }
 
+/// How a message's blocks of items are written. Both ways write the same bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Writing {
+    /// Each item by code of its own ([`ItemSet::write_items`]), its name and kind constants
+    /// there: the fastest, about 100 bytes of flash an item.
+    Straight,
+    /// Every item through its table and one loop ([`write_values`]) that serves every
+    /// message: the smallest.
+    Table,
+}
+
+impl Writing {
+    /// This build's way: through the tables in a `compact` build, else straight.
+    pub(crate) const BUILD: Self = if cfg!(feature = "compact") {
+        Self::Table
+    } else {
+        Self::Straight
+    };
+}
+
 /// Writes the `present` values as items.
 // One copy serves every message; inlined into each it would cost a copy per message.
 #[inline(never)]
@@ -258,13 +287,18 @@ pub(crate) fn write_values(
         if present >> index & 1 == 0 {
             continue;
         }
-        let number = match item.kind {
-            Kind::Float => Number::Float(f32::from_bits(bits)),
-            Kind::Int | Kind::Byte => Number::Int(bits as i32),
-        };
-        doc.number_item(&item.name, number)?;
+        doc.number_item(&item.name, number(item.kind, bits))?;
     }
     Ok(())
+}
+
+/// A wire value of `kind` as the writer takes it.
+#[inline(always)]
+pub(crate) fn number(kind: Kind, bits: u32) -> Number {
+    match kind {
+        Kind::Float => Number::Float(f32::from_bits(bits)),
+        Kind::Int | Kind::Byte => Number::Int(bits as i32),
+    }
 }
 
 /// The items of one block, as [`read_values`] found them.
@@ -482,6 +516,48 @@ fn not_a_number(
 /// Each field names its element and optionally a default used when the element is absent
 /// (items added in later protocol versions); fields without a default are required.
 macro_rules! item_set {
+    // An answer's items: an item set that is also an `AnswerItems`.
+    (
+        answer
+        $(#[$meta:meta])*
+        pub struct $name:ident {
+            $(
+                $(#[$fmeta:meta])*
+                pub $field:ident: $ty:ty = $wire:literal $(, default $default:expr)?;
+            )*
+        }
+    ) => {
+        item_set! {
+            $(#[$meta])*
+            pub struct $name {
+                $(
+                    $(#[$fmeta])*
+                    pub $field: $ty = $wire $(, default $default)?;
+                )*
+            }
+        }
+
+        impl $crate::proto::message::items::AnswerItems for $name {
+            #[inline]
+            fn write_items(
+                &self,
+                doc: &mut $crate::proto::xml::writer::DocumentWriter<'_>,
+            ) -> Result<(), $crate::proto::xml::writer::WriteError> {
+                use $crate::proto::message::items::ItemValue;
+                $(
+                    if let Some(bits) = self.$field.to_raw() {
+                        const NAME: &$crate::proto::xml::writer::ItemName =
+                            &$crate::proto::xml::writer::ItemName::new($wire);
+                        doc.number_item(
+                            NAME,
+                            $crate::proto::message::items::number(<$ty as ItemValue>::KIND, bits),
+                        )?;
+                    }
+                )*
+                Ok(())
+            }
+        }
+    };
     (
         $(#[$meta:meta])*
         pub struct $name:ident {

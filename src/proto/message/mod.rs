@@ -25,7 +25,8 @@ use crate::proto::xml::reader::{Tokenizer, XmlError};
 use crate::proto::xml::writer::{DocumentWriter, ItemName, WriteError};
 use crate::proto::xml::{Envelope, Items, StructureError, read_tokens};
 use items::{
-    ItemSet, ItemSpec, Kind, MAX_ITEMS, Sender, item_set, parse_text, read_values, write_values,
+    AnswerItems, ItemSet, ItemSpec, Kind, MAX_ITEMS, Sender, Writing, item_set, parse_text,
+    read_values, write_values,
 };
 
 /// Longest body a valid request encodes to: a 1003 request with [`MAX_NAV_POINTS`]
@@ -130,6 +131,7 @@ pub enum ValidationError {
 }
 
 item_set! {
+    answer
     /// Type 0 answer: the robot could not read a request.
     pub struct RequestError {
         /// What was wrong with the request.
@@ -482,23 +484,52 @@ impl Response {
 
     /// Writes the XML body into `out`; returns its length.
     pub fn encode(&self, time: &Timestamp, out: &mut [u8]) -> Result<usize, WriteError> {
+        self.encode_as(time, out, Writing::BUILD)
+    }
+
+    /// [`Response::encode`] with the block written through its item table, as a `compact`
+    /// build writes it: the reference the default build's faster writing is tested against,
+    /// with the same bytes and errors.
+    pub fn encode_general(&self, time: &Timestamp, out: &mut [u8]) -> Result<usize, WriteError> {
+        self.encode_as(time, out, Writing::Table)
+    }
+
+    // Inlined into both callers, so that each writes its block one way only.
+    #[inline(always)]
+    fn encode_as(
+        &self,
+        time: &Timestamp,
+        out: &mut [u8],
+        writing: Writing,
+    ) -> Result<usize, WriteError> {
         let mut doc = DocumentWriter::begin(out, self.message_type().raw(), self.command(), time)?
             .with_non_finite();
-        // Every answer's block is written by one call, from its table and values.
-        let mut values = [0; MAX_ITEMS];
-        let (spec, present) = match self {
-            Self::Status(m) => m.to_block(&mut values),
-            Self::NavResult(m) => m.to_block(&mut values),
-            Self::CancelNav(m) | Self::Light(m) => m.to_block(&mut values),
-            Self::NavStatus(m) => m.to_block(&mut values),
-            Self::MotorTemperatures(m) => m.to_block(&mut values),
-            Self::Motion(_, m) => m.to_block(&mut values),
-            Self::Battery(m) => m.to_block(&mut values),
-            Self::Perception(m) => m.to_block(&mut values),
-            Self::Relocalize(m) => m.to_block(&mut values),
-            Self::RequestError(m) => m.to_block(&mut values),
-        };
-        write_values(&mut doc, spec, &values, present)?;
+        // `$items` for the answer's item set `$set`, whatever its Type.
+        macro_rules! with_items {
+            ($set:ident => $items:expr) => {
+                match self {
+                    Self::Status($set) => $items,
+                    Self::NavResult($set) => $items,
+                    Self::CancelNav($set) | Self::Light($set) => $items,
+                    Self::NavStatus($set) => $items,
+                    Self::MotorTemperatures($set) => $items,
+                    Self::Motion(_, $set) => $items,
+                    Self::Battery($set) => $items,
+                    Self::Perception($set) => $items,
+                    Self::Relocalize($set) => $items,
+                    Self::RequestError($set) => $items,
+                }
+            };
+        }
+        match writing {
+            Writing::Straight => with_items!(set => set.write_items(&mut doc))?,
+            Writing::Table => {
+                // The block is written by one call for every Type, from its table and values.
+                let mut values = [0; MAX_ITEMS];
+                let (spec, present) = with_items!(set => set.to_block(&mut values));
+                write_values(&mut doc, spec, &values, present)?;
+            }
+        }
         doc.finish()
     }
 

@@ -269,6 +269,7 @@ pub enum MotionValue {
 }
 
 item_set! {
+    answer
     /// Type 2 answer: the command's value echoed and whether it was carried out.
     pub struct MotionAck {
         /// `Value` as requested (a gait number arrives as an integral float); `None` if the
@@ -325,6 +326,7 @@ item_set! {
 }
 
 item_set! {
+    answer
     /// Type 2101 answer: whether the robot is localised after the request.
     pub struct RelocalizeAck {
         /// Localised or abnormal.

@@ -149,6 +149,7 @@ impl NavTask {
 }
 
 item_set! {
+    answer
     /// Type 1003 answer, sent when the task has ended.
     pub struct NavResult {
         /// Target point number, as requested.
@@ -163,6 +164,7 @@ item_set! {
 }
 
 item_set! {
+    answer
     /// Answer carrying only a success/failure `ErrorCode`: Type 1004 (cancel), Type 1101
     /// (indicator light).
     pub struct CommandAck {
@@ -173,6 +175,7 @@ item_set! {
 }
 
 item_set! {
+    answer
     /// Type 1007 answer: the state of the current or last navigation task.
     pub struct NavTaskState {
         /// Target point number of the current or last task.

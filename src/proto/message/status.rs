@@ -8,6 +8,7 @@ use crate::proto::codes::{
 };
 
 item_set! {
+    answer
     /// Type 1002 answer: the robot's real-time basic status.
     ///
     /// Only `MotionState` is required: the panel cannot confirm an e-stop without it. A
@@ -181,6 +182,7 @@ fn round(v: f32) -> Option<i32> {
 }
 
 item_set! {
+    answer
     /// Type 2001 answer: battery state.
     pub struct Battery {
         /// Voltage, V.
@@ -203,6 +205,7 @@ item_set! {
 }
 
 item_set! {
+    answer
     /// Type 2002 answer: perception state.
     pub struct Perception {
         /// Whether an obstacle is on the planned path within 2 m.
@@ -211,6 +214,7 @@ item_set! {
 }
 
 item_set! {
+    answer
     /// Type 1008 answer: the twelve joint motor temperatures, °C.
     pub struct MotorTemperatures {
         /// Left front sway (hip abduction) joint.

@@ -299,9 +299,9 @@ impl<'a> DocumentWriter<'a> {
             .get_mut(self.len..)
             .and_then(|out| out.first_chunk_mut());
         let Some(window) = window else {
-            let mut text = [0; NUMBER_MAX];
-            let n = value.format(name, self.non_finite, &mut text)?;
-            return self.number_line(name.as_bytes(), prefix(&text, n));
+            let rest = self.buf.get_mut(self.len..).unwrap_or_default();
+            self.len += number_line(rest, name, value, self.non_finite)?;
+            return Ok(());
         };
         let name_len = name.len();
         let start = ITEM_INDENT.len() + 1 + name_len + 1;
@@ -321,23 +321,6 @@ impl<'a> DocumentWriter<'a> {
         store(window, end + 2, &name.0);
         store(window, end + 2 + name_len, b">\n");
         self.len += end + 4 + name_len;
-        Ok(())
-    }
-
-    /// Writes an item line whose number was formatted aside, near the buffer's end, with
-    /// one bounds check.
-    #[inline(never)]
-    fn number_line(&mut self, name: &[u8], text: &[u8]) -> Result<(), WriteError> {
-        let total = ITEM_INDENT.len() + 2 * name.len() + text.len() + 6;
-        let out = self
-            .buf
-            .get_mut(self.len..self.len + total)
-            .ok_or(WriteError::BufferFull)?;
-        let mut out = Cursor(out);
-        out.open_tag(name);
-        out.put(text);
-        out.close_tag(name);
-        self.len += total;
         Ok(())
     }
 
@@ -381,4 +364,28 @@ impl<'a> DocumentWriter<'a> {
         self.raw(b"</PatrolDevice>\n")?;
         Ok(self.len)
     }
+}
+
+/// [`DocumentWriter::number_item`]'s line at the start of `out`, near the buffer's end,
+/// where the line's window does not fit: the number is formatted aside, and the line
+/// written with one bounds check. Returns its length.
+// Out of line: one copy serves every item line, whichever code writes it; and apart from
+// the writer, whose fields can then stay in registers.
+#[inline(never)]
+fn number_line(
+    out: &mut [u8],
+    name: &'static ItemName,
+    value: Number,
+    non_finite: bool,
+) -> Result<usize, WriteError> {
+    let mut text = [0; NUMBER_MAX];
+    let n = value.format(name, non_finite, &mut text)?;
+    let (name, text) = (name.as_bytes(), prefix(&text, n));
+    let total = ITEM_INDENT.len() + 2 * name.len() + text.len() + 6;
+    let out = out.get_mut(..total).ok_or(WriteError::BufferFull)?;
+    let mut out = Cursor(out);
+    out.open_tag(name);
+    out.put(text);
+    out.close_tag(name);
+    Ok(total)
 }
