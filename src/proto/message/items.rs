@@ -548,7 +548,13 @@ macro_rules! item_set {
                     if let Some(bits) = self.$field.to_raw() {
                         const NAME: &$crate::proto::xml::writer::ItemName =
                             &$crate::proto::xml::writer::ItemName::new($wire);
-                        doc.number_item(
+                        // Four spaces, `<` and `>`; `</`, `>` and the newline.
+                        const TAGS: &$crate::proto::xml::writer::ItemTags<
+                            { $wire.len() + 6 },
+                            { $wire.len() + 4 },
+                        > = &$crate::proto::xml::writer::ItemTags::new($wire);
+                        doc.tagged_item(
+                            TAGS,
                             NAME,
                             $crate::proto::message::items::number(<$ty as ItemValue>::KIND, bits),
                         )?;

@@ -159,6 +159,92 @@ fn store<const N: usize>(window: &mut [u8; LINE_WINDOW], at: usize, bytes: &[u8;
     }
 }
 
+/// How an item line's tags are written into its window.
+trait Tags {
+    /// Writes the indentation and `<Name>` at the window's start; returns their length.
+    fn open(&self, window: &mut [u8; LINE_WINDOW]) -> usize;
+    /// Writes `</Name>` and the line's end at `at`; returns their length.
+    fn close(&self, window: &mut [u8; LINE_WINDOW], at: usize) -> usize;
+}
+
+/// Tags from a padded name, as the item tables keep it: the name is copied whole, and
+/// what follows it is written over the padding.
+impl Tags for &ItemName {
+    #[inline(always)]
+    fn open(&self, window: &mut [u8; LINE_WINDOW]) -> usize {
+        let start = ITEM_INDENT.len() + 1 + self.len() + 1;
+        store(window, 0, ITEM_INDENT);
+        store(window, ITEM_INDENT.len(), b"<");
+        store(window, ITEM_INDENT.len() + 1, &self.0);
+        store(window, start - 1, b">");
+        start
+    }
+
+    #[inline(always)]
+    fn close(&self, window: &mut [u8; LINE_WINDOW], at: usize) -> usize {
+        store(window, at, b"</");
+        store(window, at + 2, &self.0);
+        store(window, at + 2 + self.len(), b">\n");
+        self.len() + 4
+    }
+}
+
+/// An item line's tags as constant text, `    <Name>` (`OPEN` bytes) and `</Name>` with
+/// the line's end (`CLOSE` bytes), for code that writes one item known where it is
+/// compiled: each tag is then one copy of a constant.
+pub struct ItemTags<const OPEN: usize, const CLOSE: usize> {
+    open: [u8; OPEN],
+    close: [u8; CLOSE],
+}
+
+impl<const OPEN: usize, const CLOSE: usize> ItemTags<OPEN, CLOSE> {
+    /// The tags of the item `name`; `OPEN` must be its length plus 6, `CLOSE` plus 4
+    /// (checked when the constant is built).
+    pub const fn new(name: &str) -> Self {
+        let name = name.as_bytes();
+        Self {
+            open: concat(&[ITEM_INDENT, b"<", name, b">"]),
+            close: concat(&[b"</", name, b">\n"]),
+        }
+    }
+}
+
+/// `parts` one after the other, in an array of exactly their total length (checked when the
+/// constant is built).
+const fn concat<const N: usize>(parts: &[&[u8]]) -> [u8; N] {
+    let mut out = [0; N];
+    let mut at = 0;
+    let mut parts = parts;
+    while let [part, more_parts @ ..] = parts {
+        let mut bytes = *part;
+        while let [byte, more_bytes @ ..] = bytes {
+            assert!(at < N, "the parts are longer than the array");
+            if let Some((_, [slot, ..])) = out.split_at_mut_checked(at) {
+                *slot = *byte;
+            }
+            at += 1;
+            bytes = more_bytes;
+        }
+        parts = more_parts;
+    }
+    assert!(at == N, "the parts are shorter than the array");
+    out
+}
+
+impl<const OPEN: usize, const CLOSE: usize> Tags for &ItemTags<OPEN, CLOSE> {
+    #[inline(always)]
+    fn open(&self, window: &mut [u8; LINE_WINDOW]) -> usize {
+        store(window, 0, &self.open);
+        OPEN
+    }
+
+    #[inline(always)]
+    fn close(&self, window: &mut [u8; LINE_WINDOW], at: usize) -> usize {
+        store(window, at, &self.close);
+        CLOSE
+    }
+}
+
 /// The value of a number item.
 #[derive(Clone, Copy)]
 pub(crate) enum Number {
@@ -293,6 +379,30 @@ impl<'a> DocumentWriter<'a> {
         name: &'static ItemName,
         value: Number,
     ) -> Result<(), WriteError> {
+        self.item_line(name, name, value)
+    }
+
+    /// Writes an item line whose tags are known where the code is compiled (`tags`, made
+    /// for the item called `name`): each is one constant copy.
+    #[inline(always)]
+    pub(crate) fn tagged_item<const OPEN: usize, const CLOSE: usize>(
+        &mut self,
+        tags: &ItemTags<OPEN, CLOSE>,
+        name: &'static ItemName,
+        value: Number,
+    ) -> Result<(), WriteError> {
+        self.item_line(name, tags, value)
+    }
+
+    /// Writes the line of item `name`, whose tags `tags` write, into a window of the
+    /// buffer checked once, with the number formatted in place between them.
+    #[inline(always)]
+    fn item_line(
+        &mut self,
+        name: &'static ItemName,
+        tags: impl Tags,
+        value: Number,
+    ) -> Result<(), WriteError> {
         self.open_items()?;
         let window = self
             .buf
@@ -303,12 +413,7 @@ impl<'a> DocumentWriter<'a> {
             self.len += number_line(rest, name, value, self.non_finite)?;
             return Ok(());
         };
-        let name_len = name.len();
-        let start = ITEM_INDENT.len() + 1 + name_len + 1;
-        store(window, 0, ITEM_INDENT);
-        store(window, ITEM_INDENT.len(), b"<");
-        store(window, ITEM_INDENT.len() + 1, &name.0);
-        store(window, start - 1, b">");
+        let start = tags.open(window);
         let text = window
             .get_mut(start..)
             .and_then(|rest| rest.first_chunk_mut::<NUMBER_MAX>());
@@ -317,10 +422,7 @@ impl<'a> DocumentWriter<'a> {
             None => 0,
         };
         let end = start + n.min(NUMBER_MAX);
-        store(window, end, b"</");
-        store(window, end + 2, &name.0);
-        store(window, end + 2 + name_len, b">\n");
-        self.len += end + 4 + name_len;
+        self.len += end + tags.close(window, end);
         Ok(())
     }
 
