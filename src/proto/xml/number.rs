@@ -222,11 +222,16 @@ impl Binary {
                 m: fraction,
                 e: -149,
             },
-            // biased <= 255: the conversion is lossless.
-            _ => Binary {
-                m: fraction | 1 << 23,
-                e: biased as i32 - 150,
-            },
+            _ => Self::decode_normal(bits),
+        }
+    }
+
+    /// [`Binary::decode`] for the bits of a normal float.
+    fn decode_normal(bits: u32) -> Self {
+        Binary {
+            m: bits & 0x007f_ffff | 1 << 23,
+            // At most 255: the conversion is lossless.
+            e: (bits >> 23 & 0xff) as i32 - 150,
         }
     }
 
@@ -885,7 +890,13 @@ impl Window {
     /// `exact_only` set the approximate path is not there at all.
     #[inline(always)]
     fn new(bits: u32, exact_only: bool) -> Option<Self> {
-        let x = Binary::decode(bits);
+        // An exact window's float is normal. Zero and subnormals read as normal come out with
+        // a scale far above 14, so they are not exact either way.
+        let x = if exact_only {
+            Binary::decode_normal(bits)
+        } else {
+            Binary::decode(bits)
+        };
         // floor(log2 x) + 1, and the floor of that times log10(2) (exact for |v| < 1650 with
         // this constant): the decimal exponent of x is `estimate` or one less.
         // A normal float's significand has 24 bits, so the exact-only path takes 24 instead
@@ -923,8 +934,14 @@ impl Window {
             above *= 10;
             scale += 1;
         }
-        // `above` is even when exact (a power of two of at least 2 times 5^scale).
-        let below = if x.narrow_below() { above / 2 } else { above };
+        // `above` is even when exact (a power of two of at least 2 times 5^scale). A normal
+        // float is narrow below when its significand is a power of two.
+        let narrow_below = if exact_only {
+            x.m == 1 << 23
+        } else {
+            x.narrow_below()
+        };
+        let below = if narrow_below { above / 2 } else { above };
         let mut window = Window {
             bits,
             x,
