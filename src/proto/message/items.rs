@@ -201,7 +201,7 @@ pub trait ItemSet: Sized {
 /// ([`Writing::Straight`]). A request's are written through their table in every build: the
 /// panel writes them, and there the flash counts more than the time.
 pub trait AnswerItems: ItemSet {
-    /// Writes the present items, each by code of its own in which its name and kind are
+    /// Writes the present items, each by code of its own in which its kind and tags are
     /// constants: no table is read and nothing is converted to wire values first.
     fn write_items(&self, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError>;
 }
@@ -257,8 +257,9 @@ impl NameFilter {
 /// How a message's blocks of items are written. Both ways write the same bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Writing {
-    /// Each item by code of its own ([`ItemSet::write_items`]), its name and kind constants
-    /// there: the fastest, about 100 bytes of flash an item.
+    /// Each item by code of its own ([`AnswerItems::write_items`]), its kind and tags
+    /// constants there: the fastest, about 150 bytes of flash an item on the
+    /// microcontroller.
     Straight,
     /// Every item through its table and one loop ([`write_values`]) that serves every
     /// message: the smallest.
