@@ -192,7 +192,7 @@ impl Tags for &ItemName {
 /// An item line's tags as constant text, `    <Name>` (`OPEN` bytes) and `</Name>` with
 /// the line's end (`CLOSE` bytes), for code that writes one item known where it is
 /// compiled: each tag is then one copy of a constant.
-pub struct ItemTags<const OPEN: usize, const CLOSE: usize> {
+pub(crate) struct ItemTags<const OPEN: usize, const CLOSE: usize> {
     open: [u8; OPEN],
     close: [u8; CLOSE],
 }
@@ -200,7 +200,7 @@ pub struct ItemTags<const OPEN: usize, const CLOSE: usize> {
 impl<const OPEN: usize, const CLOSE: usize> ItemTags<OPEN, CLOSE> {
     /// The tags of the item `name`; `OPEN` must be its length plus 6, `CLOSE` plus 4
     /// (checked when the constant is built).
-    pub const fn new(name: &str) -> Self {
+    pub(crate) const fn new(name: &str) -> Self {
         let name = name.as_bytes();
         Self {
             open: concat(&[ITEM_INDENT, b"<", name, b">"]),
