@@ -201,6 +201,10 @@ impl<const OPEN: usize, const CLOSE: usize> ItemTags<OPEN, CLOSE> {
     /// The tags of the item `name`; `OPEN` must be its length plus 6, `CLOSE` plus 4
     /// (checked when the constant is built).
     pub(crate) const fn new(name: &str) -> Self {
+        assert!(
+            OPEN + NUMBER_MAX + CLOSE <= LINE_WINDOW,
+            "an item line with these tags does not fit the line's window"
+        );
         let name = name.as_bytes();
         Self {
             open: concat(&[ITEM_INDENT, b"<", name, b">"]),
