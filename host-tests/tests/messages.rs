@@ -656,6 +656,85 @@ fn motion_2_request_and_response() {
     assert_response_round_trip(&ack);
 }
 
+/// A Type 2 request's `Value` is found without regard to ASCII case, as every other item
+/// is, for a float and for a gait alike.
+#[test]
+fn motion_request_value_in_any_case() {
+    let motion = |command: i32, item: &str| {
+        format!(
+            "<PatrolDevice><Type>2</Type><Command>{command}</Command>\
+             <Time>2023-01-01 00:00:00</Time><Items>{item}</Items></PatrolDevice>"
+        )
+    };
+    for decode in [Request::decode, Request::decode_general] {
+        for name in ["VALUE", "value", "vAlUe"] {
+            let walk = decode(motion(1, &format!("<{name}>0.5</{name}>")).as_bytes());
+            assert_eq!(
+                walk.map(|d| d.message),
+                Ok(Request::Motion(MotionCommand::Move(
+                    Direction::Forward,
+                    Speed::Value(0.5)
+                ))),
+                "{name}"
+            );
+            let gait = decode(motion(20, &format!("<{name}>4</{name}>")).as_bytes());
+            assert_eq!(
+                gait.map(|d| d.message),
+                Ok(Request::Motion(MotionCommand::SwitchGait(
+                    MotionGait::from_raw(4)
+                ))),
+                "{name}"
+            );
+        }
+    }
+}
+
+/// An answer's item that is there twice reads as its last occurrence: readable after an
+/// unreadable one, it is reported and not named unreadable; unreadable after a readable
+/// one, it is named unreadable and not reported. Never both.
+#[test]
+fn an_item_there_twice_reads_as_its_last_occurrence() {
+    let status = |items: &str| {
+        format!(
+            "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time>\
+             <Items><MotionState>0</MotionState>{items}<Electricity>87</Electricity></Items>\
+             </PatrolDevice>"
+        )
+    };
+    for decode in [Response::decode, Response::decode_general] {
+        let read = |items: &str| {
+            let Ok(Decoded {
+                message: Response::Status(s),
+                unreadable,
+                ..
+            }) = decode(status(items).as_bytes())
+            else {
+                panic!("the status is refused: {items}");
+            };
+            let names: Vec<String> = unreadable.names().map(|n| n.to_string()).collect();
+            (s.h, s.pos_x.to_bits(), names)
+        };
+        let none: Vec<String> = Vec::new();
+        assert_eq!(
+            read("<H>abc</H><H>5</H>"),
+            (Some(5), f32::NAN.to_bits(), none.clone())
+        );
+        assert_eq!(
+            read("<H>5</H><H>abc</H>"),
+            (None, f32::NAN.to_bits(), vec!["H".to_string()])
+        );
+        // Out of the table's order, so the second is found by the search, not in sequence.
+        assert_eq!(
+            read("<PosX>1,5</PosX><H>1</H><PosX>1.5</PosX>"),
+            (Some(1), 1.5f32.to_bits(), none.clone())
+        );
+        assert_eq!(
+            read("<H>x</H><PosX>2</PosX><H>7</H>"),
+            (Some(7), 2f32.to_bits(), none.clone())
+        );
+    }
+}
+
 /// A Type 2 answer that leaves out the `Value` echo is read: its `ErrorCode` alone says
 /// what the robot did. It encodes back without `Value`.
 #[test]

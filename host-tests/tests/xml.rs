@@ -349,6 +349,46 @@ fn wrong_root_and_missing_header_elements() {
     );
 }
 
+/// `Type` or `Command` there twice with different values is refused, wherever the second
+/// stands (a block read as the first would otherwise be taken for the second's); the same
+/// value twice is read.
+#[test]
+fn a_type_or_command_declared_twice_differently_is_refused() {
+    let second_type = BODY.replace("</Items>", "</Items><Type>2001</Type>");
+    let second_command = BODY.replace("<Items>", "<Command>2</Command><Items>");
+    let before_header = BODY.replace(
+        "<Type>2002</Type><Command>1</Command>",
+        "<Command>1</Command><Type>2002</Type><Command>3</Command>",
+    );
+    for decode in [Response::decode, Response::decode_general] {
+        let decode = |xml: &str| decode(xml.as_bytes()).map(|d| d.message);
+        assert_eq!(
+            decode(&second_type),
+            Err(DecodeError::Structure(StructureError::Conflicting("Type")))
+        );
+        assert_eq!(
+            decode(&second_command),
+            Err(DecodeError::Structure(StructureError::Conflicting(
+                "Command"
+            )))
+        );
+        assert_eq!(
+            decode(&before_header),
+            Err(DecodeError::Structure(StructureError::Conflicting(
+                "Command"
+            )))
+        );
+        assert_eq!(
+            decode(&BODY.replace("</Items>", "</Items><Type>2002</Type>")),
+            obstacle(BODY)
+        );
+    }
+    assert_eq!(
+        DecodeError::Structure(StructureError::Conflicting("Type")).to_string(),
+        "<Type> is there twice, with different values"
+    );
+}
+
 #[test]
 fn tokenizer_yields_the_structure() {
     let mut t = Tokenizer::document(b"<?xml version='1.0'?><a><b x='1'>t</b><c/></a>");

@@ -90,6 +90,7 @@ impl Display for StructureError {
             Self::NotText(name) => write!(f, "<{name}> holds elements, not text"),
             Self::BadNumber(name, e) => write!(f, "<{name}>: {e}"),
             Self::TooManyItemsBlocks => f.write_str("too many <Items> blocks"),
+            Self::Conflicting(name) => write!(f, "<{name}> is there twice, with different values"),
         }
     }
 }

@@ -333,6 +333,12 @@ pub(crate) fn read_values(
     let mut next = 0;
     let mut present: Present = 0;
     let mut unreadable: Present = 0;
+    // An item there twice is as its last occurrence reads: present or unreadable, not both.
+    let mut record = |index: usize, reading: u32| {
+        let bit = 1 << index;
+        present = present & !bit | (reading & PRESENT) << index;
+        unreadable = unreadable & !bit | (reading >> 1) << index;
+    };
     loop {
         // The usual layout: the item the table lists next, written plainly. An integer's
         // text is short, so it is read in the pass that finds its end; a float's text is
@@ -351,15 +357,13 @@ pub(crate) fn read_values(
             };
             if let Some(integer) = integer {
                 *value = integer as u32;
-                present |= 1 << next;
+                record(next, PRESENT);
                 next += 1;
                 continue;
             }
             match items.next_plain(spec.name.as_bytes()) {
                 Some((item, true)) => {
-                    let reading = read_item(item.text, spec, sender, value)?;
-                    present |= (reading & PRESENT) << next;
-                    unreadable |= (reading >> 1) << next;
+                    record(next, read_item(item.text, spec, sender, value)?);
                     next += 1;
                     continue;
                 }
@@ -385,9 +389,7 @@ pub(crate) fn read_values(
         };
         let known = index.and_then(|i| Some((i, spec.get(i)?, values.get_mut(i)?)));
         if let Some((index, spec, value)) = known {
-            let reading = read_item(item.text, spec, sender, value)?;
-            present |= (reading & PRESENT) << index;
-            unreadable |= (reading >> 1) << index;
+            record(index, read_item(item.text, spec, sender, value)?);
             next = index + 1;
         }
     }

@@ -627,7 +627,8 @@ fn read_motion(command: i32, items: &mut Items<'_>) -> Result<MotionCommand, Dec
     let mut value = None;
     for item in items {
         let item = item?;
-        if item.name == spec.name.as_bytes() {
+        // Without regard to ASCII case, as every other table's items are read.
+        if item.name.eq_ignore_ascii_case(spec.name.as_bytes()) {
             value = Some(parse_text(item.text, spec, Sender::Client)?);
         }
     }

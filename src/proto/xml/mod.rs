@@ -39,6 +39,9 @@ pub enum StructureError {
     BadNumber(&'static str, NumberError),
     /// More than [`MAX_ITEMS_BLOCKS`] `<Items>` blocks.
     TooManyItemsBlocks,
+    /// `Type` or `Command` is there twice with different values: which of them the items
+    /// belong to cannot be told.
+    Conflicting(&'static str),
 }
 
 impl From<XmlError> for StructureError {
@@ -245,6 +248,10 @@ impl Header {
             Some(slot) => {
                 let value = number::parse_int(text)
                     .map_err(|e| StructureError::BadNumber(element.name(), e))?;
+                // A block may already have been read as the first value declared.
+                if slot.is_some_and(|first| first != value) {
+                    return Err(StructureError::Conflicting(element.name()));
+                }
                 *slot = Some(value);
             }
             // The robot does not act on the time, so a sender's other format (a `T` between
@@ -266,6 +273,10 @@ impl Header {
     fn take_plain(&mut self, tokens: &mut Tokenizer<'_>, element: HeaderElement) -> bool {
         let name = element.name().as_bytes();
         if let Some(slot) = self.number_slot(element) {
+            // A second one is left to `set`, which refuses it if it differs.
+            if slot.is_some() {
+                return false;
+            }
             let value = tokens.simple_value(name, number::parse_int_prefix::<i32>);
             if value.is_some() {
                 *slot = value;
