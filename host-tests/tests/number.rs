@@ -165,13 +165,13 @@ proptest! {
     }
 }
 
-/// Builds decimal text from its parts: sign, leading zeros, at most 19 significant digits with
+/// Builds decimal text from its parts: sign, leading zeros, `digits` significant digits with
 /// an optional point, and an optional exponent in one of several spellings.
-fn decimal_text() -> impl Strategy<Value = String> {
+fn decimal_text(digits: std::ops::RangeInclusive<usize>) -> impl Strategy<Value = String> {
     (
         0..3usize,
         0..4usize,
-        prop::collection::vec(0..10u8, 1..=19),
+        prop::collection::vec(0..10u8, digits),
         any::<prop::sample::Index>(),
         any::<bool>(),
         prop::option::of((-75..60i32, 0..4usize)),
@@ -206,14 +206,21 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(50_000))]
 
     #[test]
-    fn parse_matches_std(text in decimal_text()) {
+    fn parse_matches_std(text in decimal_text(1..=19)) {
+        check_parse(&text);
+    }
+
+    /// Past 19 significant digits too (where the digits after the 19th are read again when
+    /// they decide).
+    #[test]
+    fn long_texts_match_std(text in decimal_text(20..=130)) {
         check_parse(&text);
     }
 
     /// A text without exponent reads the same with zeros appended to its fraction: past 19
     /// bytes that takes the general scan instead of the short one, so the two agree.
     #[test]
-    fn short_and_long_scans_agree(text in decimal_text()) {
+    fn short_and_long_scans_agree(text in decimal_text(1..=19)) {
         if !text.contains(['e', 'E']) {
             let point = if text.contains('.') { "" } else { "." };
             let long = format!("{text}{point}{}", "0".repeat(20));
@@ -249,9 +256,9 @@ proptest! {
         check_parse(&format!("{sign}0.{mantissa:09}e{exponent}"));
     }
 
-    /// Exact midpoints between adjacent floats whose decimal fits 19 significant digits must
-    /// round to the even neighbour; 19-digit decimals just below and above any midpoint must
-    /// round down and up.
+    /// The exact midpoint between adjacent floats, however many digits it takes (up to
+    /// 112), rounds to the even neighbour; a digit past its last, up or down, decides;
+    /// 19-digit decimals just below and above it round down and up.
     #[test]
     fn midpoints_round_to_even(bits in 1u32..0x7f7f_ffff) {
         let low = f32::from_bits(bits);
@@ -259,16 +266,21 @@ proptest! {
         // Adjacent floats have 24-bit significands one binade apart at most: exact in f64.
         let mid = (f64::from(low) + f64::from(high)) / 2.0;
         let exact = exact_decimal(mid);
-        let significant = exact.trim_start_matches(['0', '.']).replace('.', "");
-        if significant.len() <= 19 {
-            let even = if bits % 2 == 0 { low } else { high };
-            prop_assert_eq!(parse_f32(exact.as_bytes()), Ok(even), "{}", exact);
-            check_parse(&exact);
-            // A non-zero digit far past the 19th breaks the tie upwards (the sticky bit).
-            let point = if exact.contains('.') { "" } else { "." };
-            let nudged = format!("{exact}{point}{}1", "0".repeat(20));
-            prop_assert_eq!(parse_f32(nudged.as_bytes()), Ok(high), "{}", nudged);
-            check_parse(&nudged);
+        let even = if bits % 2 == 0 { low } else { high };
+        prop_assert_eq!(parse_f32(exact.as_bytes()), Ok(even), "{}", exact);
+        check_parse(&exact);
+        // A non-zero digit far past the midpoint's last breaks the tie upwards.
+        let point = if exact.contains('.') { "" } else { "." };
+        let nudged = format!("{exact}{point}{}1", "0".repeat(20));
+        prop_assert_eq!(parse_f32(nudged.as_bytes()), Ok(high), "{}", nudged);
+        check_parse(&nudged);
+        // Its last digit one lower, then nines: just below the midpoint.
+        let (head, last) = exact.split_at(exact.len() - 1);
+        let last = last.parse::<u8>().unwrap();
+        if last > 0 {
+            let below = format!("{head}{}{point}{}", last - 1, "9".repeat(30));
+            prop_assert_eq!(parse_f32(below.as_bytes()), Ok(low), "{}", below);
+            check_parse(&below);
         }
         // 19 significant digits just below and just above the midpoint.
         let (below, above) = bracket_19(mid);
@@ -380,9 +392,33 @@ fn parse_forms_match_std() {
     assert_eq!(parse_f32(b"0e99999"), Ok(0.0));
 }
 
+/// Digits past the 19th are read exactly where they decide the rounding: ties written out
+/// in full, and the largest float's upper midpoint, which is beyond the range.
 #[test]
-fn more_than_19_digits_are_close() {
-    // Digits past the 19th only set a sticky bit; far from midpoints the result is exact.
+fn more_than_19_digits_round_correctly() {
+    for tie in [
+        "1.000000178813934326171875",
+        "0.1000000052154064178466796875",
+        "0.0010000001057051122188568115234375",
+        "1.0000000596046447753906251",
+        "1.0000000596046447753906249999999999999",
+    ] {
+        check_parse(tie);
+    }
+    // Half a step above f32::MAX rounds to infinity, which is out of range; a digit less is
+    // f32::MAX.
+    assert_eq!(
+        parse_f32(b"340282356779733661637539395458142568448"),
+        Err(NumberError::OutOfRange)
+    );
+    assert_eq!(
+        parse_f32(b"340282356779733661637539395458142568447.9999999999999999999999"),
+        Ok(f32::MAX)
+    );
+    // The tie above the smallest subnormal, all 105 significant digits of it.
+    let subnormal_tie = exact_decimal(f64::from(f32::from_bits(1)) * 1.5);
+    assert_eq!(parse_f32(subnormal_tie.as_bytes()), Ok(f32::from_bits(2)));
+    check_parse(&subnormal_tie);
     check_parse("0.10000000000000000000000000000000001");
     check_parse("3.14159265358979323846264338327950288");
     check_parse("100000000000000000000000000000000000000");

@@ -246,7 +246,10 @@ impl Binary {
 /// non-negative float `bits`: `Less` below it, `Equal` to it, `Greater` above it.
 ///
 /// Round-half-even: a decimal exactly between two floats goes to the one with even `m`.
-fn round_check(n: u64, e10: i32, sticky: bool, bits: u32) -> Ordering {
+/// With `sticky`, `n` must hold enough digits that every midpoint near the decimal is a
+/// multiple of `10^e10` ([`EXACT_DIGITS`]): then `n·10^e10` below a midpoint leaves the
+/// decimal below it too, whatever the dropped digits were.
+fn round_check(n: Big, e10: i32, sticky: bool, bits: u32) -> Ordering {
     let x = Binary::decode(bits);
     let odd = x.m % 2 == 1;
     let against = |k: u32, e2: i32| {
@@ -282,11 +285,13 @@ fn round_check(n: u64, e10: i32, sticky: bool, bits: u32) -> Ordering {
 ///
 /// Both sides are brought to integers by moving the power of five to the side where it
 /// multiplies: `n·5^e10` vs `k` (for `e10 >= 0`) or `n` vs `k·5^-e10`. Callers keep
-/// `-64 <= e10 <= 38`, `n < 2^64` and `k < 2^26`, so neither side exceeds
-/// `max(2^64·5^38, 2^26·5^64) < 2^175` before the shift, and [`Big::compare_shifted`] never
-/// grows a number past the larger of the two: 192 bits suffice.
-fn compare(n: u64, e10: i32, k: u32, e2: i32) -> Ordering {
-    let mut decimal = Big::from_u64(n);
+/// `k < 2^26` and either `n < 2^64` with `-64 <= e10 <= 38`, or `n < 10^120` (see
+/// [`EXACT_DIGITS`]) with `e10 >= -165` and `n·10^e10 < 10^57` (a decimal the parser
+/// scaled). So neither side exceeds `max(2^64·5^38, 10^120, 2^26·5^165) < 2^410` before the
+/// shift, and [`Big::compare_shifted`] never grows a number past the larger of the two: 416
+/// bits suffice.
+fn compare(n: Big, e10: i32, k: u32, e2: i32) -> Ordering {
+    let mut decimal = n;
     let mut binary = Big::from_u64(u64::from(k));
     if e10 >= 0 {
         decimal.mul_pow5(e10.unsigned_abs());
@@ -296,8 +301,8 @@ fn compare(n: u64, e10: i32, k: u32, e2: i32) -> Ordering {
     decimal.compare_shifted(binary, e10 - e2)
 }
 
-/// Number of 32-bit limbs of [`Big`]; see [`compare`] for why 192 bits are enough.
-const LIMBS: usize = 6;
+/// Number of 32-bit limbs of [`Big`]; see [`compare`] for why 416 bits are enough.
+const LIMBS: usize = 13;
 
 /// A fixed-size unsigned integer, least significant limb first, with only what [`compare`] needs.
 #[derive(Clone, Copy)]
@@ -306,12 +311,15 @@ struct Big([u32; LIMBS]);
 impl Big {
     /// The value `v`.
     fn from_u64(v: u64) -> Self {
-        Big([v as u32, (v >> 32) as u32, 0, 0, 0, 0])
+        let mut big = Big([0; LIMBS]);
+        let [low, high, ..] = &mut big.0;
+        (*low, *high) = (v as u32, (v >> 32) as u32);
+        big
     }
 
-    /// `self *= factor` (the caller guarantees the product fits).
-    fn mul_small(&mut self, factor: u32) {
-        let mut carry = 0u64;
+    /// `self = self·factor + addend` (the caller guarantees the result fits).
+    fn mul_add(&mut self, factor: u32, addend: u32) {
+        let mut carry = u64::from(addend);
         for limb in &mut self.0 {
             // (2^32-1)^2 + (2^32-1) < 2^64: no overflow.
             let product = u64::from(*limb) * u64::from(factor) + carry;
@@ -327,7 +335,7 @@ impl Big {
             let step = e.min(13);
             // `step <= 13` is always in the table.
             let factor = POW5_EXACT.get(step as usize).copied().unwrap_or_default();
-            self.mul_small(factor as u32);
+            self.mul_add(factor as u32, 0);
             e -= step;
         }
     }
@@ -511,16 +519,13 @@ impl Approx {
 ///
 /// No surrounding whitespace, no "inf"/"nan" (answers read those with
 /// [`parse_non_finite`]), no hex; ".5" and "5." are accepted (C `strtod` does). The result
-/// is correctly rounded (round-half-even) to `f32` for inputs of up to 19 significant
-/// digits. Digits beyond the 19th only set a sticky bit ("something non-zero
-/// follows"), so a longer input whose first 19 digits lie within `10^-18` (relative) below the
-/// midpoint between two floats may round to the lower neighbour instead of the upper: an error
-/// of one unit in the last place, for inputs no `float` printer produces. Values that round
-/// above `f32::MAX` are [`NumberError::OutOfRange`]; values too small for the smallest
-/// subnormal become ±0.
+/// is correctly rounded (round-half-even) to `f32` for any number of digits: 19 significant
+/// ones are read at once, and only a text that lies near the midpoint between two floats
+/// after them is read again, with up to 120. Values that round above `f32::MAX`
+/// are [`NumberError::OutOfRange`]; values too small for the smallest subnormal become ±0.
 pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
     let decimal = Decimal::scan(text)?;
-    let magnitude = decimal.magnitude()?;
+    let magnitude = decimal.magnitude(text)?;
     Ok(if decimal.negative {
         -magnitude
     } else {
@@ -585,6 +590,8 @@ struct Decimal {
     mantissa: u64,
     exponent: i32,
     sticky: bool,
+    /// Where in the text the first dropped digit is (0 if none is).
+    dropped_at: usize,
 }
 
 impl Decimal {
@@ -602,6 +609,7 @@ impl Decimal {
             mantissa: 0,
             exponent: 0,
             sticky: false,
+            dropped_at: 0,
         };
         let mut written_exponent = 0;
         let mut any_digit = false;
@@ -627,6 +635,10 @@ impl Decimal {
                     decimal.exponent = decimal.exponent.saturating_sub(1);
                 }
             } else {
+                // No digit is dropped at the text's start: 0 means none yet.
+                if decimal.dropped_at == 0 {
+                    decimal.dropped_at = text.len() - body.len() + i;
+                }
                 decimal.sticky |= d != 0;
                 if !after_point {
                     decimal.exponent = decimal.exponent.saturating_add(1);
@@ -675,11 +687,13 @@ impl Decimal {
             mantissa,
             exponent: -(fraction.len() as i32),
             sticky: false,
+            dropped_at: 0,
         })
     }
 
-    /// The correctly rounded magnitude.
-    fn magnitude(&self) -> Result<f32, NumberError> {
+    /// The correctly rounded magnitude; `text` is what [`Decimal::scan`] read, for the rare
+    /// decimal whose dropped digits decide it.
+    fn magnitude(&self, text: &[u8]) -> Result<f32, NumberError> {
         if self.mantissa == 0 {
             return Ok(0.0);
         }
@@ -696,7 +710,7 @@ impl Decimal {
         let approx = Approx::new(self.mantissa, 0).mul(Approx::pow10(self.exponent));
         let (guess, near_midpoint) = round_to_f32(approx);
         let bits = if near_midpoint {
-            self.refine(guess)
+            self.refine(guess, text)
         } else {
             guess
         };
@@ -708,9 +722,10 @@ impl Decimal {
     }
 
     /// Moves `bits` (a float within one step of the answer) to the exactly rounded float.
-    fn refine(&self, mut bits: u32) -> u32 {
+    fn refine(&self, mut bits: u32, text: &[u8]) -> u32 {
+        let (digits, exponent, sticky) = self.exact(text);
         for _ in 0..4 {
-            match round_check(self.mantissa, self.exponent, self.sticky, bits) {
+            match round_check(digits, exponent, sticky, bits) {
                 Ordering::Greater if bits < INF_BITS => bits += 1,
                 Ordering::Less if bits > 0 => bits -= 1,
                 _ => break,
@@ -718,7 +733,44 @@ impl Decimal {
         }
         bits
     }
+
+    /// The decimal with enough digits for [`round_check`]: with digits dropped, a midpoint
+    /// may lie between the 19 kept and the whole text, and the text's later digits decide.
+    /// Each is appended in turn (the point is passed over), up to [`EXACT_DIGITS`]; `text`
+    /// is what [`Decimal::scan`] read.
+    fn exact(&self, text: &[u8]) -> (Big, i32, bool) {
+        let mut digits = Big::from_u64(self.mantissa);
+        let (mut exponent, mut sticky) = (self.exponent, false);
+        if !self.sticky {
+            return (digits, exponent, sticky);
+        }
+        // `exponent` is the 19 kept digits' (each dropped digit before the point raised
+        // it), so each digit appended lowers it.
+        let dropped = text.get(self.dropped_at..).unwrap_or_default();
+        let mut room = EXACT_DIGITS - 19;
+        for &c in dropped.iter().take_while(|&&c| c | 0x20 != b'e') {
+            let Some(d) = digit(c) else {
+                continue;
+            };
+            if room > 0 {
+                digits.mul_add(10, u32::from(d));
+                exponent = exponent.saturating_sub(1);
+                room -= 1;
+            } else {
+                sticky |= d != 0;
+            }
+        }
+        (digits, exponent, sticky)
+    }
 }
+
+/// Significant digits read exactly when the 19 kept do not settle the rounding. Every
+/// midpoint between floats, `k·2^e2` with `k < 2^26` and `e2 >= -151`, has its last
+/// significant digit at or above 10^-151, and its first within one place of the decimal's
+/// first when the two are near; so 120 digits from the decimal's first reach below every
+/// such midpoint's last, and a midpoint near the decimal is a multiple of the last kept
+/// digit's place (as [`round_check`] needs). 10^120 fits [`Big`].
+const EXACT_DIGITS: u32 = 120;
 
 /// The value of eight ASCII digits, read as one little-endian word, or `None` if any byte is
 /// not a digit: three multiplications, each combining neighbouring groups (digits, then
@@ -993,7 +1045,8 @@ impl Window {
 
     /// Whether `candidate·10^-scale` parses back to the float.
     fn reads_back(&self, candidate: u32) -> bool {
-        round_check(u64::from(candidate), -self.scale, false, self.bits) == Ordering::Equal
+        let candidate = Big::from_u64(u64::from(candidate));
+        round_check(candidate, -self.scale, false, self.bits) == Ordering::Equal
     }
 
     /// The shortest integer in the window, nearest to `y`, ties to the larger one; returned as
@@ -1053,7 +1106,8 @@ impl Window {
             return self.y >= mid;
         }
         // mid·10^-scale = twice_mid·5·10^(-scale-1).
-        compare(twice_mid * 5, -self.scale - 1, self.x.m, self.x.e) != Ordering::Greater
+        let twice_mid = Big::from_u64(twice_mid * 5);
+        compare(twice_mid, -self.scale - 1, self.x.m, self.x.e) != Ordering::Greater
     }
 }
 
