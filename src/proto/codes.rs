@@ -35,18 +35,80 @@ pub fn reported_description<T: Code>(code: Option<T>) -> &'static str {
     code.map_or(NOT_REPORTED, T::description)
 }
 
+/// Where `raw` is in `codes`, a coded enum's known codes: `consecutive` ones (most enums)
+/// are found by subtracting the first, others by searching `table`, the same codes as
+/// [`search_table`] makes them. Both flags and tables are constants, so only one way is
+/// compiled for each enum.
+#[inline(always)]
+const fn position(codes: &[i32], consecutive: bool, table: &[u16], raw: i32) -> Option<usize> {
+    match codes {
+        [first, ..] if consecutive => {
+            let at = raw.wrapping_sub(*first) as u32 as usize;
+            if at < codes.len() { Some(at) } else { None }
+        }
+        _ => search(table, raw),
+    }
+}
+
+/// Whether `codes` are consecutive numbers, in order.
+const fn consecutive(codes: &[i32]) -> bool {
+    let mut rest = codes;
+    while let [code, tail @ ..] = rest {
+        if let [next, ..] = tail
+            && *next != code.wrapping_add(1)
+        {
+            return false;
+        }
+        rest = tail;
+    }
+    true
+}
+
+/// The table [`position`] searches for `codes`: two bytes a code (every sparse code of the
+/// protocol is below 2^16, checked here when the constant is built), and nothing at all
+/// for consecutive codes, which need no table.
+const fn search_table<const N: usize>(codes: &[i32]) -> [u16; N] {
+    let mut table = [0; N];
+    if consecutive(codes) {
+        return table;
+    }
+    let (mut rest, mut slots) = (codes, table.as_mut_slice());
+    while let ([code, more_codes @ ..], [slot, more_slots @ ..]) = (rest, slots) {
+        assert!(
+            0 <= *code && *code <= u16::MAX as i32,
+            "a sparse code is not below 2^16"
+        );
+        *slot = *code as u16;
+        (rest, slots) = (more_codes, more_slots);
+    }
+    table
+}
+
+/// Where `raw` is in `table`; one copy serves every enum.
+#[inline(never)]
+const fn search(table: &[u16], raw: i32) -> Option<usize> {
+    let mut rest = table;
+    let mut at = 0;
+    while let [code, tail @ ..] = rest {
+        if *code as i32 == raw {
+            return Some(at);
+        }
+        at += 1;
+        rest = tail;
+    }
+    None
+}
+
 /// Generates a coded enum with an `Unknown(i32)` case and its conversions.
 ///
-/// Each variant is `Name = raw => "description"`; the description also becomes the variant's
-/// doc. Extra `///` lines go before any `#[cfg(...)]`; cfg attributes are applied to the
-/// variant and to every match arm that names it.
+/// Each variant is `Name = raw => "description"`, the description also
+/// becomes the variant's doc, after which extra `///` lines go.
 macro_rules! coded_enum {
     (
         $(#[$meta:meta])*
         pub enum $name:ident {
             $(
                 $(#[doc = $doc:literal])*
-                $(#[cfg($cfg:meta)])*
                 $variant:ident = $raw:literal => $desc:literal
             ),+ $(,)?
         }
@@ -64,7 +126,6 @@ macro_rules! coded_enum {
             $(
                 #[doc = concat!("`", stringify!($raw), "`: ", $desc, ".")]
                 $(#[doc = $doc])*
-                $(#[cfg($cfg)])*
                 $variant,
             )+
             /// A value this protocol version does not define, kept as received.
@@ -72,21 +133,31 @@ macro_rules! coded_enum {
         }
 
         impl $name {
+            /// The known codes, in the variants' order.
+            const CODES: &'static [i32] = &[$($raw),+];
+            /// Whether [`Self::CODES`] are consecutive.
+            const CONSECUTIVE: bool = consecutive(Self::CODES);
+            /// [`Self::CODES`] as [`position`] searches them.
+            const TABLE: &'static [u16] = &search_table::<{ [$($raw),+].len() }>(Self::CODES);
+
             /// Decodes a raw code; one this protocol version does not define becomes `Unknown(raw)`.
-            // Called once per coded item of every message: one copy of the match per code
-            // is much smaller than one per item.
+            // Called once per coded item of every message: one copy per code is much smaller
+            // than one per item. A `match` on sparse codes (the 1003 answer's `ErrorStatus`)
+            // compiles to a search tree and jump tables several times larger than their table.
             #[inline(never)]
             pub const fn from_raw(raw: i32) -> Self {
-                match raw {
-                    $( $(#[cfg($cfg)])* $raw => Self::$variant, )+
-                    other => Self::Unknown(other),
+                // Each variant's position in `CODES`.
+                enum Position { $($variant),+ }
+                match position(Self::CODES, Self::CONSECUTIVE, Self::TABLE, raw) {
+                    $( Some(i) if i == Position::$variant as usize => Self::$variant, )+
+                    _ => Self::Unknown(raw),
                 }
             }
 
             /// The code as sent on the wire.
             pub const fn raw(self) -> i32 {
                 match self {
-                    $( $(#[cfg($cfg)])* Self::$variant => $raw, )+
+                    $( Self::$variant => $raw, )+
                     Self::Unknown(raw) => raw,
                 }
             }
@@ -99,7 +170,7 @@ macro_rules! coded_enum {
             /// Short English meaning of the code; "unknown code" for `Unknown`.
             pub const fn description(self) -> &'static str {
                 match self {
-                    $( $(#[cfg($cfg)])* Self::$variant => $desc, )+
+                    $( Self::$variant => $desc, )+
                     Self::Unknown(_) => "unknown code",
                 }
             }
@@ -120,7 +191,7 @@ macro_rules! coded_enum {
 
             fn name(self) -> &'static str {
                 match self {
-                    $( $(#[cfg($cfg)])* Self::$variant => stringify!($variant), )+
+                    $( Self::$variant => stringify!($variant), )+
                     Self::Unknown(_) => "Unknown",
                 }
             }
