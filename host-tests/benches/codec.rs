@@ -851,7 +851,7 @@ fn summary(f: &Fixtures, allocs: &AllocationReport, quick: bool) {
         let mut doc = DocumentWriter::begin(&mut buf, 1002, 1, black_box(&f.status_time))
             .expect("the header fits");
         for name in &SKELETON_NAMES {
-            doc.int_item(name, 0).expect("the item fits");
+            doc.int_item(*name, 0).expect("the item fits");
         }
         doc.finish().expect("the document fits")
     });

@@ -11,7 +11,7 @@ fn decode_errors_name_the_item_and_the_problem() {
     let err = Response::decode(xml.as_bytes()).unwrap_err();
     assert_eq!(err.to_string(), "item <ObsState>: not a decimal number");
     assert_eq!(
-        DecodeError::MissingItem(const { &ItemName::new("PosX") }).to_string(),
+        DecodeError::MissingItem(ItemName::new("PosX")).to_string(),
         "item <PosX> is missing"
     );
     assert_eq!(
@@ -37,7 +37,7 @@ fn other_errors_print_their_details() {
     );
     assert_eq!(
         WriteError::NotFinite {
-            item: const { &ItemName::new("PosX") }
+            item: ItemName::new("PosX")
         }
         .to_string(),
         "item <PosX> is NaN or infinite"
@@ -65,7 +65,7 @@ fn item_names_print_as_their_text() {
     assert_eq!(NAME.to_string(), "BatteryTemperature");
     assert_eq!(format!("{NAME:?}"), "\"BatteryTemperature\"");
     assert_eq!(
-        format!("{:?}", DecodeError::MissingItem(&NAME)),
+        format!("{:?}", DecodeError::MissingItem(NAME)),
         "MissingItem(\"BatteryTemperature\")"
     );
 }

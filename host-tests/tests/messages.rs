@@ -376,7 +376,7 @@ fn an_unreadable_optional_item_in_an_answer_is_not_reported() {
     assert_eq!(
         Response::decode(status("<MotionState>6,0</MotionState>").as_bytes()),
         Err(DecodeError::BadItem {
-            item: const { &ItemName::new("MotionState") },
+            item: ItemName::new("MotionState"),
             error: NumberError::Invalid,
         })
     );
@@ -391,9 +391,7 @@ fn status_without_motion_state_is_refused_naming_it() {
     let xml = "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items><PosX>1</PosX><Electricity>50</Electricity></Items></PatrolDevice>";
     assert_eq!(
         Response::decode(xml.as_bytes()),
-        Err(DecodeError::MissingItem(
-            const { &ItemName::new("MotionState") }
-        ))
+        Err(DecodeError::MissingItem(ItemName::new("MotionState")))
     );
 }
 
@@ -1006,7 +1004,7 @@ fn answers_may_write_an_integer_item_as_a_whole_float() {
         assert_eq!(
             Response::decode(status("87", text).as_bytes()),
             Err(DecodeError::BadItem {
-                item: const { &ItemName::new("MotionState") },
+                item: ItemName::new("MotionState"),
                 error,
             }),
             "MotionState {text}"
@@ -1196,7 +1194,7 @@ fn bad_numbers_are_named() {
         assert_eq!(
             Response::decode(base.replace(">X<", &format!(">{text}<")).as_bytes()),
             Err(DecodeError::BadItem {
-                item: const { &ItemName::new("ObsState") },
+                item: ItemName::new("ObsState"),
                 error
             }),
             "{text}"
@@ -1206,7 +1204,7 @@ fn bad_numbers_are_named() {
     assert_eq!(
         Request::decode(float.as_bytes()),
         Err(DecodeError::BadItem {
-            item: const { &ItemName::new("Value") },
+            item: ItemName::new("Value"),
             error: NumberError::OutOfRange
         })
     );
@@ -1289,7 +1287,7 @@ fn non_finite_floats_are_refused_by_name() {
     assert_eq!(
         Request::Relocalize(pose).encode(&T0, &mut buf),
         Err(WriteError::NotFinite {
-            item: const { &ItemName::new("PosY") }
+            item: ItemName::new("PosY")
         })
     );
     assert_eq!(
@@ -1356,7 +1354,7 @@ fn answers_may_report_nan_and_infinity_and_requests_may_not() {
         assert_eq!(
             Response::decode(temperatures.as_bytes()),
             Err(DecodeError::BadItem {
-                item: const { &ItemName::new("LeftFrontSway") },
+                item: ItemName::new("LeftFrontSway"),
                 error: NumberError::Invalid
             }),
             "{text}"
@@ -1369,20 +1367,17 @@ fn answers_may_report_nan_and_infinity_and_requests_may_not() {
         )
     };
     let requests = [
-        (
-            envelope("2", "<Value>nan</Value>"),
-            const { &ItemName::new("Value") },
-        ),
+        (envelope("2", "<Value>nan</Value>"), ItemName::new("Value")),
         (
             envelope(
                 "2101",
                 "<PosX>1</PosX><PosY>inf</PosY><PosZ>0</PosZ><Yaw>0</Yaw>",
             ),
-            const { &ItemName::new("PosY") },
+            ItemName::new("PosY"),
         ),
         (
             NAV_REQUEST.replace("<PosX>0.0<", "<PosX>-nan<"),
-            const { &ItemName::new("PosX") },
+            ItemName::new("PosX"),
         ),
     ];
     for (body, item) in requests {
@@ -1456,7 +1451,7 @@ fn byte_items_out_of_range_are_refused_by_both_paths() {
             (Err(error), Err(number)) => assert_eq!(
                 error,
                 DecodeError::BadItem {
-                    item: const { &ItemName::new("Red") },
+                    item: ItemName::new("Red"),
                     error: number
                 },
                 "{text}"

@@ -1381,7 +1381,7 @@ fn float_with_huge_exponent_is_out_of_range() {
     assert_eq!(
         Request::decode(doc("1e2147483648").as_bytes()),
         Err(DecodeError::BadItem {
-            item: const { &ItemName::new("Value") },
+            item: ItemName::new("Value"),
             error: NumberError::OutOfRange
         })
     );

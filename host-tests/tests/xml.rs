@@ -343,9 +343,7 @@ fn wrong_root_and_missing_header_elements() {
     ));
     assert_eq!(
         obstacle(&BODY.replace("<ObsState>1</ObsState>", "<ObsState><X>1</X></ObsState>")),
-        Err(DecodeError::ItemNotText(
-            const { &ItemName::new("ObsState") }
-        ))
+        Err(DecodeError::ItemNotText(ItemName::new("ObsState")))
     );
 }
 

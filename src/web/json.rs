@@ -28,18 +28,18 @@ use crate::app::Snapshot;
 use crate::panel::indicators::LinkState;
 use crate::panel::monitor::{Stamped, stale_limit};
 use crate::proto::codes::reported_description;
-use crate::proto::message::items::{ItemSet, ItemSpec, Kind, MAX_ITEMS, Present};
+use crate::proto::message::items::{ItemSet, Kind, MAX_ITEMS, Present, Table};
 use crate::proto::message::{Battery, MotorTemperatures, NavTaskState, Perception, RobotStatus};
 use crate::proto::xml::number::F32_TEXT_MAX;
 use crate::settings::write_f32;
 
 /// Longest JSON [`write_status`] writes, bytes: every item at its longest text, plus
 /// an allowance for the rest. A buffer this long never cuts the answer short.
-pub const STATUS_MAX: usize = items_max(RobotStatus::SPEC)
-    + items_max(Battery::SPEC)
-    + items_max(MotorTemperatures::SPEC)
-    + items_max(Perception::SPEC)
-    + items_max(NavTaskState::SPEC)
+pub const STATUS_MAX: usize = items_max(RobotStatus::TABLE)
+    + items_max(Battery::TABLE)
+    + items_max(MotorTemperatures::TABLE)
+    + items_max(Perception::TABLE)
+    + items_max(NavTaskState::TABLE)
     + words_max(RobotStatus::WORDS.len())
     + words_max(Battery::WORDS.len())
     + words_max(MotorTemperatures::WORDS.len())
@@ -56,16 +56,17 @@ pub const WORD_MAX: usize = 64;
 const FRAME_MAX: usize = 1024;
 
 /// Longest text of one item: its quoted name, a colon, the value, a comma.
-const fn items_max(mut spec: &[ItemSpec]) -> usize {
+const fn items_max(table: &Table) -> usize {
     let mut total = 0;
-    while let [item, rest @ ..] = spec {
+    let mut index = 0;
+    while let Some(item) = table.item(index) {
         let value = match item.kind {
             Kind::Float => F32_TEXT_MAX,
             // "-2147483648"
             Kind::Int | Kind::Byte => 11,
         };
         total += item.name.as_bytes().len() + 4 + value;
-        spec = rest;
+        index += 1;
     }
     total
 }
@@ -196,7 +197,7 @@ fn answer<T: Shown>(
     };
     let mut values = [0; MAX_ITEMS];
     let present = value.to_values(&mut values);
-    object(out, T::SPEC, &values, present, facts, words)
+    object(out, T::TABLE, &values, present, facts, words)
 }
 
 /// What an answer's object tells besides its items.
@@ -209,20 +210,23 @@ struct Facts {
     unavailable: Option<bool>,
 }
 
-/// Writes one answer's object: `values` under the names of `spec` (`null` where not
+/// Writes one answer's object: `values` under the names of `table` (`null` where not
 /// `present`), then `facts`, then `words` as `text`.
 // One copy serves every answer.
 #[inline(never)]
 fn object(
     out: &mut dyn Write,
-    spec: &[ItemSpec],
+    table: &Table,
     values: &[u32],
     present: Present,
     facts: Facts,
     words: &mut dyn Iterator<Item = (&'static str, &'static str)>,
 ) -> fmt::Result {
     out.write_char('{')?;
-    for (index, (item, &bits)) in spec.iter().zip(values).enumerate() {
+    for (index, &bits) in values.iter().enumerate() {
+        let Some(item) = table.item(index) else {
+            break;
+        };
         write!(out, "\"{}\":", item.name)?;
         match item.kind {
             _ if present >> index & 1 == 0 => out.write_str("null")?,

@@ -1,21 +1,23 @@
 //! How typed fields become `<Items>` children and back.
 //!
 //! Every item is an integer or a float on the wire, so a message's items are described by
-//! a table of [`ItemSpec`]s and carried through one array of wire values ([`Values`]) with
-//! a mask of those present ([`Present`]): one reader and one writer serve every message,
-//! and each message adds only its table and the conversion between its fields and that
-//! array. The `item_set!` macro writes both from a struct definition that names each
-//! field's element, so the list of items is written down once.
-//! Keeping per-message code this small is what lets the whole codec fit a few KiB of flash.
+//! a [`Table`] (their names one after another, and two bytes an item) and carried through
+//! one array of wire values ([`Values`]) with a mask of those present ([`Present`]): one
+//! reader and one writer serve every message, and each message adds only its table and the
+//! conversion between its fields and that array. The `item_set!` macro writes both from a
+//! struct definition that names each field's element, so the list of items is written down
+//! once. Keeping per-message code and data this small is what lets the whole codec fit a
+//! few KiB of flash.
 
 use super::DecodeError;
 use crate::proto::codes::Code;
 use crate::proto::xml::Items;
 use crate::proto::xml::number;
-use crate::proto::xml::writer::{DocumentWriter, ItemName, Number, WriteError};
+use crate::proto::xml::writer::{DocumentWriter, ItemName, NAME_MAX, Number, WriteError};
 
 /// What an item holds on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
 pub enum Kind {
     /// A float.
     Float,
@@ -36,7 +38,8 @@ pub(crate) enum Sender {
     Robot,
 }
 
-/// One item of a message: its element name, what it holds, and whether it may be absent.
+/// One item of a message, as [`Table::item`] gives it: its element name, what it holds,
+/// and whether it may be absent.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ItemSpec {
     /// The element name as the document spells it. Reading matches it without regard to
@@ -132,61 +135,172 @@ pub fn field<T: ItemValue>(bits: u32, present: bool, default: impl FnOnce() -> T
     }
 }
 
-/// A message's item table with what the reader derives from it once, at build time, so
-/// that reading a block takes one pointer to all of it.
+/// One item as its [`Table`] keeps it: where its name ends among the table's names, and
+/// what it holds.
+#[derive(Clone, Copy)]
+pub struct Entry {
+    end: u8,
+    kind: Kind,
+}
+
+/// A message's items, in the order the document lists them: their names one after another,
+/// two bytes an item, and what the reader derives from them once, at build time, so that
+/// reading a block takes one pointer to all of it. Made by `table!`.
 pub struct Table {
-    /// The items, in the order the document lists them.
-    pub spec: &'static [ItemSpec],
-    /// Which names can be in the table.
-    names: NameFilter,
+    /// The items' names, one after another.
+    names: &'static [u8],
+    /// The items.
+    entries: &'static [Entry],
     /// Which items a document must hold.
     required: Present,
+    /// Which names can be in the table. The filter only saves time: a `compact` build
+    /// searches the table for every name, and keeps none.
+    #[cfg(not(feature = "compact"))]
+    filter: NameFilter,
 }
 
 impl Table {
-    /// The table of `spec`.
-    pub const fn of(spec: &'static [ItemSpec]) -> Self {
+    /// The table without items.
+    pub const EMPTY: &'static Self = &Self::new("", &[], 0);
+
+    /// The table of the items whose names, one after another, are `names`, described by
+    /// `entries` (made by [`entries`]), with the `required` ones (made by [`required`]).
+    pub const fn new(names: &'static str, entries: &'static [Entry], required: Present) -> Self {
+        let names = names.as_bytes();
         Self {
-            spec,
-            names: NameFilter::of(spec),
-            required: required_items(spec),
+            names,
+            entries,
+            required,
+            #[cfg(not(feature = "compact"))]
+            filter: NameFilter::of(names, entries),
         }
+    }
+
+    /// The number of items.
+    pub const fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// The item at `index`, if there is one.
+    pub const fn item(&self, index: usize) -> Option<ItemSpec> {
+        let Some((before, [entry, ..])) = self.entries.split_at_checked(index) else {
+            return None;
+        };
+        let start = match before.last() {
+            Some(previous) => previous.end as usize,
+            None => 0,
+        };
+        let Some((name, _)) = self.names.split_at_checked(entry.end as usize) else {
+            return None;
+        };
+        let Some((_, name)) = name.split_at_checked(start) else {
+            return None;
+        };
+        Some(ItemSpec {
+            name: ItemName::from_table(name),
+            kind: entry.kind,
+            required: self.required >> index & 1 != 0,
+        })
+    }
+
+    /// Where the item called `name` (compared without regard to ASCII case) is. Names are
+    /// unique in a table, so the first found is the only one.
+    fn find(&self, name: &[u8]) -> Option<usize> {
+        let mut start = 0;
+        for (index, entry) in self.entries.iter().enumerate() {
+            let end = usize::from(entry.end);
+            if self
+                .names
+                .get(start..end)
+                .is_some_and(|candidate| candidate.eq_ignore_ascii_case(name))
+            {
+                return Some(index);
+            }
+            start = end;
+        }
+        None
     }
 }
 
-/// Which items of `spec` are required.
-const fn required_items(spec: &[ItemSpec]) -> Present {
+/// The entries of the items called `names` (at most [`NAME_MAX`] ASCII bytes each, 255 in
+/// all, checked when the constant is built) that hold `kinds`.
+pub const fn entries<const N: usize>(names: [&str; N], kinds: [Kind; N]) -> [Entry; N] {
+    let mut entries = [Entry {
+        end: 0,
+        kind: Kind::Int,
+    }; N];
+    let mut end = 0;
+    let (mut names, mut kinds, mut slots) =
+        (names.as_slice(), kinds.as_slice(), entries.as_mut_slice());
+    while let ([name, more_names @ ..], [kind, more_kinds @ ..], [slot, more_slots @ ..]) =
+        (names, kinds, slots)
+    {
+        let name = name.as_bytes();
+        assert!(
+            name.len() <= NAME_MAX && name.is_ascii(),
+            "an item name is at most 19 ASCII bytes"
+        );
+        end += name.len();
+        assert!(
+            end <= u8::MAX as usize,
+            "a table's names take at most 255 bytes"
+        );
+        *slot = Entry {
+            end: end as u8,
+            kind: *kind,
+        };
+        (names, kinds, slots) = (more_names, more_kinds, more_slots);
+    }
+    entries
+}
+
+/// The mask of the items that are `required`.
+pub const fn required<const N: usize>(required: [bool; N]) -> Present {
     let mut mask = 0;
-    let mut rest = spec;
-    let mut bit = 1;
-    while let [item, tail @ ..] = rest {
-        if item.required {
-            mask |= bit;
-        }
-        bit <<= 1;
-        rest = tail;
+    let mut rest = required.as_slice();
+    while let [more @ .., last] = rest {
+        mask = mask << 1 | *last as Present;
+        rest = more;
     }
     mask
 }
 
+/// A [`Table`] constant: `table!("Name": kind, required; ...)`.
+macro_rules! table {
+    ($($name:literal: $kind:expr, $required:expr;)*) => {{
+        const ENTRIES: &[$crate::proto::message::items::Entry] =
+            &$crate::proto::message::items::entries([$($name),*], [$($kind),*]);
+        const {
+            assert!(
+                ENTRIES.len() <= $crate::proto::message::items::MAX_ITEMS,
+                "an item table holds at most 32 items"
+            )
+        };
+        &$crate::proto::message::items::Table::new(
+            concat!($($name),*),
+            ENTRIES,
+            $crate::proto::message::items::required([$($required),*]),
+        )
+    }};
+}
+pub(crate) use table;
+
 /// A message's items as a whole.
 pub trait ItemSet: Sized {
     /// The items, in the order the document lists them.
-    const SPEC: &'static [ItemSpec];
-    /// [`ItemSet::SPEC`] as the reader takes it.
-    const TABLE: &'static Table = &Table::of(Self::SPEC);
+    const TABLE: &'static Table;
 
-    /// Puts the fields as wire values in [`ItemSet::SPEC`] order into `values` (the rest
+    /// Puts the fields as wire values in [`ItemSet::TABLE`] order into `values` (the rest
     /// untouched), and returns which of them are present.
     fn to_values(&self, values: &mut Values) -> Present;
-    /// The fields from wire values in [`ItemSet::SPEC`] order (the rest unused), every
+    /// The fields from wire values in [`ItemSet::TABLE`] order (the rest unused), every
     /// required one present.
     fn from_values(values: &Values, present: Present) -> Self;
 
     /// [`ItemSet::to_values`] with the table they belong to, for writing the block of any
     /// message with one call.
-    fn to_block(&self, values: &mut Values) -> (&'static [ItemSpec], Present) {
-        (Self::SPEC, self.to_values(values))
+    fn to_block(&self, values: &mut Values) -> (&'static Table, Present) {
+        (Self::TABLE, self.to_values(values))
     }
 
     /// Reads the items of one request block; unknown items are skipped, a missing required
@@ -212,16 +326,25 @@ pub trait AnswerItems: ItemSet {
 /// through the table. The bits are kept in 32-bit words, which the microcontroller shifts
 /// in one instruction.
 #[derive(Clone, Copy)]
+#[cfg(not(feature = "compact"))]
 pub struct NameFilter([u32; 4]);
 
+#[cfg(not(feature = "compact"))]
 impl NameFilter {
-    /// The bits of every name in `spec`.
-    pub const fn of(spec: &[ItemSpec]) -> Self {
+    /// The bits of every name of `entries`, whose names are `names`.
+    const fn of(names: &[u8], entries: &[Entry]) -> Self {
         let mut set: u128 = 0;
-        let mut rest = spec;
-        while let [item, tail @ ..] = rest {
-            let [a, b] = Self::bits(item.name.as_bytes());
-            set |= 1 << a | 1 << b;
+        let mut rest = entries;
+        let mut start = 0;
+        while let [entry, tail @ ..] = rest {
+            let end = entry.end as usize;
+            if let Some((name, _)) = names.split_at_checked(end)
+                && let Some((_, name)) = name.split_at_checked(start)
+            {
+                let [a, b] = Self::bits(name);
+                set |= 1 << a | 1 << b;
+            }
+            start = end;
             rest = tail;
         }
         Self([
@@ -280,15 +403,17 @@ impl Writing {
 #[inline(never)]
 pub(crate) fn write_values(
     doc: &mut DocumentWriter<'_>,
-    spec: &'static [ItemSpec],
+    table: &Table,
     values: &[u32],
     present: Present,
 ) -> Result<(), WriteError> {
-    for (index, (item, &bits)) in spec.iter().zip(values).enumerate() {
+    for (index, &bits) in values.iter().enumerate().take(table.len()) {
         if present >> index & 1 == 0 {
             continue;
         }
-        doc.number_item(&item.name, number(item.kind, bits))?;
+        if let Some(item) = table.item(index) {
+            doc.number_item(item.name, number(item.kind, bits))?;
+        }
     }
     Ok(())
 }
@@ -321,15 +446,8 @@ pub(crate) fn read_values(
     table: &Table,
     sender: Sender,
 ) -> Result<Block, DecodeError> {
-    let Table {
-        spec,
-        names,
-        required,
-    } = *table;
     let mut values = [0; MAX_ITEMS];
-    // Documents list items in the table's order, so the search starts after the item found
-    // last: a known item is then found at the first comparison. Names are unique in a
-    // table, so where the search starts cannot change what it finds.
+    // The item after the one found last: documents list items in the table's order.
     let mut next = 0;
     let mut present: Present = 0;
     let mut unreadable: Present = 0;
@@ -345,7 +463,7 @@ pub(crate) fn read_values(
         // found first (a word at a time) and parsed after, which keeps the work that the
         // next line has to wait for short. Another item written plainly is read by the same
         // pass, its name scanned rather than compared.
-        let item = if let Some((spec, value)) = spec.get(next).zip(values.get_mut(next)) {
+        let item = if let Some((spec, value)) = table.item(next).zip(values.get_mut(next)) {
             let integer = match spec.kind {
                 Kind::Float => None,
                 Kind::Int => {
@@ -363,7 +481,7 @@ pub(crate) fn read_values(
             }
             match items.next_plain(spec.name.as_bytes()) {
                 Some((item, true)) => {
-                    record(next, read_item(item.text, spec, sender, value)?);
+                    record(next, read_item(item.text, &spec, sender, value)?);
                     next += 1;
                     continue;
                 }
@@ -377,32 +495,27 @@ pub(crate) fn read_values(
             break;
         };
         let item = item?;
-        // The filter only saves time; a `compact` build searches the table for every name.
-        if !cfg!(feature = "compact") && !names.may_hold(item.name) {
+        #[cfg(not(feature = "compact"))]
+        if !table.filter.may_hold(item.name) {
             continue;
         }
-        let matches = |s: &ItemSpec| item.name.eq_ignore_ascii_case(s.name.as_bytes());
-        let (earlier, later) = spec.split_at_checked(next).unwrap_or_default();
-        let index = match later.iter().position(matches) {
-            Some(i) => Some(next + i),
-            None => earlier.iter().position(matches),
-        };
-        let known = index.and_then(|i| Some((i, spec.get(i)?, values.get_mut(i)?)));
+        let index = table.find(item.name);
+        let known = index.and_then(|i| Some((i, table.item(i)?, values.get_mut(i)?)));
         if let Some((index, spec, value)) = known {
-            record(index, read_item(item.text, spec, sender, value)?);
+            record(index, read_item(item.text, &spec, sender, value)?);
             next = index + 1;
         }
     }
-    match required & !present {
+    match table.required & !present {
         0 => Ok(Block {
             values,
             present,
             unreadable,
         }),
         missing => {
-            let first = spec.get(missing.trailing_zeros() as usize);
+            let first = table.item(missing.trailing_zeros() as usize);
             Err(DecodeError::MissingItem(
-                first.map_or(const { &ItemName::new("") }, |item| &item.name),
+                first.map_or(ItemName::new(""), |item| item.name),
             ))
         }
     }
@@ -418,7 +531,7 @@ pub(crate) fn read_values(
 #[inline(always)]
 fn read_item(
     text: Option<&[u8]>,
-    spec: &'static ItemSpec,
+    spec: &ItemSpec,
     sender: Sender,
     value: &mut u32,
 ) -> Result<u32, DecodeError> {
@@ -439,12 +552,8 @@ const UNREADABLE: u32 = 2;
 
 /// Parses one item's text (`None`: it holds elements) as its spec says and its `sender` may
 /// write it, naming the item on failure.
-pub(crate) fn parse_text(
-    text: Option<&[u8]>,
-    spec: &'static ItemSpec,
-    sender: Sender,
-) -> Result<u32, DecodeError> {
-    let text = text.ok_or(DecodeError::ItemNotText(&spec.name))?;
+fn parse_text(text: Option<&[u8]>, spec: &ItemSpec, sender: Sender) -> Result<u32, DecodeError> {
+    let text = text.ok_or(DecodeError::ItemNotText(spec.name))?;
     match spec.kind {
         Kind::Float => match number::parse_f32(text) {
             Ok(value) => Ok(value.to_bits()),
@@ -474,12 +583,12 @@ fn integer(text: &[u8], kind: Kind) -> Result<u32, number::NumberError> {
 #[inline(never)]
 fn whole_float(
     text: &[u8],
-    spec: &'static ItemSpec,
+    spec: &ItemSpec,
     sender: Sender,
     error: number::NumberError,
 ) -> Result<u32, DecodeError> {
     let bad = |error| DecodeError::BadItem {
-        item: &spec.name,
+        item: spec.name,
         error,
     };
     let (Sender::Robot, Some(point)) = (sender, text.iter().position(|&c| c == b'.')) else {
@@ -501,14 +610,14 @@ fn whole_float(
 #[inline(never)]
 fn not_a_number(
     text: &[u8],
-    spec: &'static ItemSpec,
+    spec: &ItemSpec,
     sender: Sender,
     error: number::NumberError,
 ) -> Result<u32, DecodeError> {
     match (sender, number::parse_non_finite(text)) {
         (Sender::Robot, Some(value)) => Ok(value.to_bits()),
         _ => Err(DecodeError::BadItem {
-            item: &spec.name,
+            item: spec.name,
             error,
         }),
     }
@@ -549,8 +658,8 @@ macro_rules! item_set {
                 use $crate::proto::message::items::ItemValue;
                 $(
                     if let Some(bits) = self.$field.to_raw() {
-                        const NAME: &$crate::proto::xml::writer::ItemName =
-                            &$crate::proto::xml::writer::ItemName::new($wire);
+                        const NAME: $crate::proto::xml::writer::ItemName =
+                            $crate::proto::xml::writer::ItemName::new($wire);
                         // Four spaces, `<` and `>`; `</`, `>` and the newline.
                         const TAGS: &$crate::proto::xml::writer::ItemTags<
                             { $wire.len() + 6 },
@@ -584,20 +693,13 @@ macro_rules! item_set {
             $( $(#[$fmeta])* pub $field: $ty, )*
         }
 
-        // One bit of `Present` per item.
-        const _: () = assert!(
-            [$($wire),*].len() <= $crate::proto::message::items::MAX_ITEMS,
-            "an item table holds at most 32 items"
-        );
-
         impl $crate::proto::message::items::ItemSet for $name {
-            const SPEC: &'static [$crate::proto::message::items::ItemSpec] = &[$(
-                $crate::proto::message::items::ItemSpec {
-                    name: $crate::proto::xml::writer::ItemName::new($wire),
-                    kind: <$ty as $crate::proto::message::items::ItemValue>::KIND,
-                    required: item_set!(@required $($default)?),
-                },
-            )*];
+            const TABLE: &'static $crate::proto::message::items::Table =
+                $crate::proto::message::items::table!($(
+                    $wire: <$ty as $crate::proto::message::items::ItemValue>::KIND,
+                        item_set!(@required $($default)?);
+                )*);
+
             fn to_values(
                 &self,
                 values: &mut $crate::proto::message::items::Values,

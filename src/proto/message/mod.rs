@@ -25,8 +25,8 @@ use crate::proto::xml::reader::{Tokenizer, XmlError};
 use crate::proto::xml::writer::{DocumentWriter, ItemName, WriteError};
 use crate::proto::xml::{Envelope, Items, StructureError, read_tokens};
 use items::{
-    AnswerItems, ItemSet, ItemSpec, Kind, MAX_ITEMS, Sender, Writing, item_set, parse_text,
-    read_values, write_values,
+    AnswerItems, ItemSet, Kind, MAX_ITEMS, Sender, Table, Writing, item_set, read_values, table,
+    write_values,
 };
 
 /// Longest body a valid request encodes to: a 1003 request with [`MAX_NAV_POINTS`]
@@ -38,19 +38,11 @@ pub const MAX_REQUEST_LEN: usize = 4608;
 const DEFAULT_COMMAND: i32 = 1;
 
 /// The motion command's one item, `Value`: a float (a speed or a height).
-const MOTION_VALUE_FLOAT: ItemSpec = ItemSpec {
-    name: ItemName::new("Value"),
-    kind: Kind::Float,
-    required: true,
-};
+const MOTION_VALUE_FLOAT: &Table = table!("Value": Kind::Float, true;);
 
 /// The motion command's one item, `Value`, for a gait: an integer. Read as a float, a large
 /// one would be rounded.
-const MOTION_VALUE_INT: ItemSpec = ItemSpec {
-    name: ItemName::new("Value"),
-    kind: Kind::Int,
-    required: true,
-};
+const MOTION_VALUE_INT: &Table = table!("Value": Kind::Int, true;);
 
 /// Why a body could not be decoded into a message. The frame was consumed whole, so the
 /// connection stays usable.
@@ -65,15 +57,15 @@ pub enum DecodeError {
     /// A Type 2 `Command` this build does not know.
     UnknownCommand(i32),
     /// A required item is missing.
-    MissingItem(&'static ItemName),
+    MissingItem(ItemName),
     /// An item holds child elements where a value was expected (as for
     /// [`DecodeError::BadItem`], an optional item of an answer counts as absent instead).
-    ItemNotText(&'static ItemName),
+    ItemNotText(ItemName),
     /// An item's value does not parse or does not fit: any item of a request, a required
     /// item of an answer (an optional one that cannot be read counts as absent).
     BadItem {
         /// The item's element name.
-        item: &'static ItemName,
+        item: ItemName,
         /// What was wrong with its text.
         error: NumberError,
     },
@@ -221,12 +213,22 @@ pub struct Decoded<T> {
 /// Items an answer wrote that could not be read (a float with a decimal comma, an empty
 /// element, …), so that a reading shown as not reported can be told from one the robot
 /// left out.
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy)]
 pub struct Unreadable {
     /// The table the mask refers to.
-    spec: &'static [ItemSpec],
-    /// Bit `i` for `spec[i]`.
+    table: &'static Table,
+    /// Bit `i` for the table's item `i`.
     mask: items::Present,
+}
+
+/// No item.
+impl Default for Unreadable {
+    fn default() -> Self {
+        Self {
+            table: Table::EMPTY,
+            mask: 0,
+        }
+    }
 }
 
 impl Unreadable {
@@ -236,13 +238,11 @@ impl Unreadable {
     }
 
     /// The names of the items that could not be read, in the table's order.
-    pub fn names(&self) -> impl Iterator<Item = &'static ItemName> {
-        let mask = self.mask;
-        self.spec
-            .iter()
-            .enumerate()
-            .filter(move |(i, _)| mask >> i & 1 != 0)
-            .map(|(_, item)| &item.name)
+    pub fn names(&self) -> impl Iterator<Item = ItemName> {
+        let (table, mask) = (self.table, self.mask);
+        (0..table.len())
+            .filter(move |i| mask >> i & 1 != 0)
+            .filter_map(|i| Some(table.item(i)?.name))
     }
 }
 
@@ -339,29 +339,29 @@ impl Request {
         let mut doc = DocumentWriter::begin(out, self.message_type().raw(), self.command(), time)?;
         // Every block is written by one call, from its table and values.
         let mut values = [0; MAX_ITEMS];
-        let (spec, present) = match self {
+        let (table, present) = match self {
             Self::NavTask(task) => {
                 for point in &task.points {
-                    let (spec, present) = point.to_block(&mut values);
-                    write_values(&mut doc, spec, &values, present)?;
+                    let (table, present) = point.to_block(&mut values);
+                    write_values(&mut doc, table, &values, present)?;
                     doc.end_items_block()?;
                 }
-                (&[][..], 0)
+                (Table::EMPTY, 0)
             }
             Self::Light(light) => light.to_block(&mut values),
             Self::Motion(motion) => {
                 let [value, ..] = &mut values;
-                let spec = match motion.value() {
+                let table = match motion.value() {
                     MotionValue::Float(v) => {
                         *value = v.to_bits();
-                        &MOTION_VALUE_FLOAT
+                        MOTION_VALUE_FLOAT
                     }
                     MotionValue::Int(v) => {
                         *value = v as u32;
-                        &MOTION_VALUE_INT
+                        MOTION_VALUE_INT
                     }
                 };
-                (core::slice::from_ref(spec), 1)
+                (table, 1)
             }
             Self::Relocalize(pose) => pose.to_block(&mut values),
             Self::Status
@@ -369,12 +369,12 @@ impl Request {
             | Self::NavStatus
             | Self::MotorTemperatures
             | Self::Battery
-            | Self::Perception => (&[][..], 0),
+            | Self::Perception => (Table::EMPTY, 0),
         };
         // Nothing present writes nothing; the call is skipped (a 1003 request, whose blocks
         // are written above, measured faster for it).
         if present != 0 {
-            write_values(&mut doc, spec, &values, present)?;
+            write_values(&mut doc, table, &values, present)?;
         }
         doc.finish()
     }
@@ -526,8 +526,8 @@ impl Response {
             Writing::Table => {
                 // The block is written by one call for every Type, from its table and values.
                 let mut values = [0; MAX_ITEMS];
-                let (spec, present) = with_items!(set => set.to_block(&mut values));
-                write_values(&mut doc, spec, &values, present)?;
+                let (table, present) = with_items!(set => set.to_block(&mut values));
+                write_values(&mut doc, table, &values, present)?;
             }
         }
         doc.finish()
@@ -592,7 +592,7 @@ impl Response {
         let block = read_values(items, table, Sender::Robot)?;
         let (values, present) = (&block.values, block.present);
         let unreadable = Unreadable {
-            spec: table.spec,
+            table,
             mask: block.unreadable,
         };
         let message = match message_type {
@@ -620,19 +620,11 @@ impl Response {
 
 fn read_motion(command: i32, items: &mut Items<'_>) -> Result<MotionCommand, DecodeError> {
     let code = MotionCommandCode::from_raw(command);
-    let spec = match code {
-        MotionCommandCode::SwitchGait => &MOTION_VALUE_INT,
-        _ => &MOTION_VALUE_FLOAT,
+    let table = match code {
+        MotionCommandCode::SwitchGait => MOTION_VALUE_INT,
+        _ => MOTION_VALUE_FLOAT,
     };
-    let mut value = None;
-    for item in items {
-        let item = item?;
-        // Without regard to ASCII case, as every other table's items are read.
-        if item.name.eq_ignore_ascii_case(spec.name.as_bytes()) {
-            value = Some(parse_text(item.text, spec, Sender::Client)?);
-        }
-    }
-    let bits = value.ok_or(DecodeError::MissingItem(&spec.name))?;
+    let [bits, ..] = read_values(items, table, Sender::Client)?.values;
     match code {
         MotionCommandCode::SwitchGait => {
             Ok(MotionCommand::SwitchGait(MotionGait::from_raw(bits as i32)))

@@ -28,7 +28,7 @@ pub enum WriteError {
     /// A float item is NaN or infinite, which has no text form.
     NotFinite {
         /// The item's element name.
-        item: &'static ItemName,
+        item: ItemName,
     },
 }
 
@@ -78,51 +78,36 @@ impl Cursor<'_> {
     }
 }
 
-/// Room an [`ItemName`] takes: the longest item name (18 bytes, `BatteryTemperature`),
-/// padding, and the name's length in the last byte.
-const NAME_ROOM: usize = 20;
+/// Longest item name, bytes: 18 (`BatteryTemperature`) and room to spare. Checked where
+/// each name is made, so that an item line with its tags and the longest number always
+/// fits the line's window.
+pub(crate) const NAME_MAX: usize = 19;
 
-/// An item's element name, kept padded to 20 bytes with its length in the last one, so that
-/// the writer copies any name with one fixed-size move and then writes over the padding,
-/// where a copy of the name's own length would branch on it.
+/// An item's element name: ASCII, at most [`NAME_MAX`] bytes.
 #[derive(Clone, Copy, PartialEq, Eq)]
-pub struct ItemName([u8; NAME_ROOM]);
+pub struct ItemName(&'static [u8]);
 
 impl ItemName {
-    /// The name `name`, of at most 19 ASCII bytes. Meant for constants, as every item name
-    /// is: there a name that breaks this fails to compile (at run time it would panic).
-    pub const fn new(name: &str) -> Self {
-        let bytes = name.as_bytes();
+    /// The name `name`. Meant for constants, as every item name is: there a name that is
+    /// too long or not ASCII fails to compile (at run time it would panic).
+    pub const fn new(name: &'static str) -> Self {
+        let name = name.as_bytes();
         assert!(
-            bytes.len() < NAME_ROOM && bytes.is_ascii(),
+            name.len() <= NAME_MAX && name.is_ascii(),
             "an item name is at most 19 ASCII bytes"
         );
-        let mut padded = [0; NAME_ROOM];
-        if let Some((head, _)) = padded.split_at_mut_checked(bytes.len()) {
-            head.copy_from_slice(bytes);
-        }
-        if let Some(last) = padded.last_mut() {
-            *last = bytes.len() as u8;
-        }
-        Self(padded)
+        Self(name)
     }
 
-    /// The name's length; capped, so that the compiler knows it is below [`NAME_ROOM`] and
-    /// every store of an item line stays inside its window without a check.
-    const fn len(&self) -> usize {
-        let len = match self.0.last() {
-            Some(&len) => len as usize,
-            None => 0,
-        };
-        if len < NAME_ROOM { len } else { NAME_ROOM - 1 }
+    /// The name whose bytes are `name`, an item table's, which the table checked as
+    /// [`ItemName::new`] checks its name.
+    pub(crate) const fn from_table(name: &'static [u8]) -> Self {
+        Self(name)
     }
 
     /// The name's bytes.
-    pub const fn as_bytes(&self) -> &[u8] {
-        match self.0.split_at_checked(self.len()) {
-            Some((name, _)) => name,
-            None => &[],
-        }
+    pub const fn as_bytes(&self) -> &'static [u8] {
+        self.0
     }
 }
 
@@ -167,15 +152,14 @@ trait Tags {
     fn close(&self, window: &mut [u8; LINE_WINDOW], at: usize) -> usize;
 }
 
-/// Tags from a padded name, as the item tables keep it: the name is copied whole, and
-/// what follows it is written over the padding.
-impl Tags for &ItemName {
+/// Tags from a name, as the item tables keep it.
+impl Tags for ItemName {
     #[inline(always)]
     fn open(&self, window: &mut [u8; LINE_WINDOW]) -> usize {
         let start = ITEM_INDENT.len() + 1 + self.len() + 1;
         store(window, 0, ITEM_INDENT);
         store(window, ITEM_INDENT.len(), b"<");
-        store(window, ITEM_INDENT.len() + 1, &self.0);
+        put_name(window, ITEM_INDENT.len() + 1, self.0);
         store(window, start - 1, b">");
         start
     }
@@ -183,9 +167,27 @@ impl Tags for &ItemName {
     #[inline(always)]
     fn close(&self, window: &mut [u8; LINE_WINDOW], at: usize) -> usize {
         store(window, at, b"</");
-        store(window, at + 2, &self.0);
+        put_name(window, at + 2, self.0);
         store(window, at + 2 + self.len(), b">\n");
         self.len() + 4
+    }
+}
+
+impl ItemName {
+    /// The name's length; capped, so that the compiler knows it is at most [`NAME_MAX`] and
+    /// every store of an item line stays inside its window without a check.
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.0.len().min(NAME_MAX)
+    }
+}
+
+/// Copies `name` to `at` in `window` (nothing if it does not fit, which the callers' offsets
+/// rule out).
+#[inline(always)]
+fn put_name(window: &mut [u8; LINE_WINDOW], at: usize, name: &[u8]) {
+    if let Some(to) = window.get_mut(at..at + name.len()) {
+        to.copy_from_slice(name);
     }
 }
 
@@ -265,7 +267,7 @@ impl Number {
     #[inline(always)]
     fn format(
         self,
-        item: &'static ItemName,
+        item: ItemName,
         non_finite: bool,
         out: &mut [u8; NUMBER_MAX],
     ) -> Result<usize, WriteError> {
@@ -284,8 +286,8 @@ impl Number {
 const NUMBER_MAX: usize = F32_TEXT_MAX;
 
 /// The window an item line is written in: room for the indentation, the tags' six bytes,
-/// the longest number and two whole padded names.
-const LINE_WINDOW: usize = ITEM_INDENT.len() + 6 + NUMBER_MAX + 2 * NAME_ROOM;
+/// the longest number and the longest name twice.
+const LINE_WINDOW: usize = ITEM_INDENT.len() + 6 + NUMBER_MAX + 2 * NAME_MAX;
 
 /// The first `n` bytes of a formatted number.
 fn prefix(text: &[u8], n: usize) -> &[u8] {
@@ -358,31 +360,26 @@ impl<'a> DocumentWriter<'a> {
     }
 
     /// Writes an integer item.
-    pub fn int_item(&mut self, name: &'static ItemName, value: i32) -> Result<(), WriteError> {
+    pub fn int_item(&mut self, name: ItemName, value: i32) -> Result<(), WriteError> {
         self.number_item(name, Number::Int(value))
     }
 
     /// Writes a float item.
-    pub fn float_item(&mut self, name: &'static ItemName, value: f32) -> Result<(), WriteError> {
+    pub fn float_item(&mut self, name: ItemName, value: f32) -> Result<(), WriteError> {
         self.number_item(name, Number::Float(value))
     }
 
     /// Writes one item line whose value is a number. Where the buffer has room for the
     /// longest such line, the line is written into a fixed-size window of it, in order:
-    /// each tag copies the whole padded name, and what follows the name (the `>`, the
-    /// number formatted in place, the line's end) is written over its padding. So the line
-    /// takes stores at offsets bounded by the window, no copy of the number, and no branch
-    /// on the name's length; bytes past the line's end may be overwritten. Near the
+    /// the opening tag, the number formatted in place, the closing tag. So the line takes
+    /// stores at offsets bounded by the window and no copy of the number; bytes past the
+    /// line's end may be overwritten. Near the
     /// buffer's end the number is formatted aside and copied only if it fits. Always
     /// inlined: the codec writes every item from one loop (over a message's item table),
     /// where a call per item (saving and restoring the registers the formatting needs)
     /// would cost a fifth of the line.
     #[inline(always)]
-    pub(crate) fn number_item(
-        &mut self,
-        name: &'static ItemName,
-        value: Number,
-    ) -> Result<(), WriteError> {
+    pub(crate) fn number_item(&mut self, name: ItemName, value: Number) -> Result<(), WriteError> {
         self.item_line(name, name, value)
     }
 
@@ -392,7 +389,7 @@ impl<'a> DocumentWriter<'a> {
     pub(crate) fn tagged_item<const OPEN: usize, const CLOSE: usize>(
         &mut self,
         tags: &ItemTags<OPEN, CLOSE>,
-        name: &'static ItemName,
+        name: ItemName,
         value: Number,
     ) -> Result<(), WriteError> {
         self.item_line(name, tags, value)
@@ -403,7 +400,7 @@ impl<'a> DocumentWriter<'a> {
     #[inline(always)]
     fn item_line(
         &mut self,
-        name: &'static ItemName,
+        name: ItemName,
         tags: impl Tags,
         value: Number,
     ) -> Result<(), WriteError> {
@@ -480,7 +477,7 @@ impl<'a> DocumentWriter<'a> {
 #[inline(never)]
 fn number_line(
     out: &mut [u8],
-    name: &'static ItemName,
+    name: ItemName,
     value: Number,
     non_finite: bool,
 ) -> Result<usize, WriteError> {
