@@ -568,9 +568,13 @@ fn parse_text(text: Option<&[u8]>, spec: &ItemSpec, sender: Sender) -> Result<u3
 /// An integer item's text as the bits of its value: an `i32`, or a `u8` for [`Kind::Byte`].
 #[inline(always)]
 fn integer(text: &[u8], kind: Kind) -> Result<u32, number::NumberError> {
+    let value = number::parse_int::<i32>(text)?;
     match kind {
-        Kind::Byte => number::parse_int::<u8>(text).map(u32::from),
-        _ => number::parse_int::<i32>(text).map(|v| v as u32),
+        // An `i32` beyond a byte is beyond it as an `i64` too: the same error.
+        Kind::Byte => u8::try_from(value)
+            .map(u32::from)
+            .map_err(|_| number::NumberError::OutOfRange),
+        _ => Ok(value as u32),
     }
 }
 

@@ -333,9 +333,7 @@ impl Big {
         while e > 0 {
             // 5^13 is the largest power of five below 2^32.
             let step = e.min(13);
-            // `step <= 13` is always in the table.
-            let factor = POW5_EXACT.get(step as usize).copied().unwrap_or_default();
-            self.mul_add(factor as u32, 0);
+            self.mul_add(5u32.pow(step), 0);
             e -= step;
         }
     }
@@ -411,26 +409,6 @@ const POW5_COARSE: [u64; 8] = [
     0xaf29_8d05_0e43_95d7, // 5^48
 ];
 
-/// `5^r` for `r = 0..16` as the significand of an [`Approx`], exactly (`5^15 < 2^35`).
-const POW5_FINE: [u64; 16] = [
-    0x8000_0000_0000_0000,
-    0xa000_0000_0000_0000,
-    0xc800_0000_0000_0000,
-    0xfa00_0000_0000_0000,
-    0x9c40_0000_0000_0000,
-    0xc350_0000_0000_0000,
-    0xf424_0000_0000_0000,
-    0x9896_8000_0000_0000,
-    0xbebc_2000_0000_0000,
-    0xee6b_2800_0000_0000,
-    0x9502_f900_0000_0000,
-    0xba43_b740_0000_0000,
-    0xe8d4_a510_0000_0000,
-    0x9184_e72a_0000_0000,
-    0xb5e6_20f4_8000_0000,
-    0xe35f_a931_a000_0000,
-];
-
 /// `10^-k` for `k = 0..20` as the significand of an [`Approx`] (`e` is
 /// `-k + log2_pow5(-k) - 63`), rounded to nearest.
 const POW10_NEGATIVE: [u64; 20] = [
@@ -478,7 +456,8 @@ impl Approx {
     }
 
     /// `10^e` for `-64 <= e < 64`, as `2^e·5^(16q)·5^r` with `0 <= r < 16`: one product of
-    /// two table entries, the first within `2^-64` (relative) and the second exact, truncated
+    /// a table entry and `5^r` (exact: `5^15 < 2^35`), the first within `2^-64` (relative),
+    /// truncated
     /// (below `2^-63` more), so within `3·2^-64`; exact for `0 <= e < 28`. The exponents
     /// of usual float text, `-19 <= e <= 0` (a fraction's digits), are one entry of
     /// [`POW10_NEGATIVE`] instead, within `2^-64`, which saves the product.
@@ -497,10 +476,8 @@ impl Approx {
             m: table(&POW5_COARSE, (q + 4) as usize),
             e: log2_pow5(16 * q) - 63,
         };
-        let fine = Approx {
-            m: table(&POW5_FINE, r as usize),
-            e: log2_pow5(r) - 63 + e,
-        };
+        // `0 <= r < 16`: the conversion is lossless.
+        let fine = Approx::new(5u64.pow(r as u32), e);
         coarse.mul(fine)
     }
 
@@ -1111,9 +1088,8 @@ impl Window {
     }
 }
 
-/// `5^k` for `k = 0..=14`, exactly: the exact window's scales, and [`Big::mul_pow5`]'s
-/// factors. The float writer waits on this: a plain table saves it the shift that would
-/// take the value out of [`POW5_FINE`]'s significand (2 % of a 1002 encode).
+/// `5^k` for `k = 0..=14`, exactly: the exact window's scales. The float writer waits on
+/// this: a table saves it the multiplications (2 % of a 1002 encode).
 const POW5_EXACT: [u64; 15] = [
     1,
     5,
