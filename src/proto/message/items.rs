@@ -406,24 +406,26 @@ pub(crate) fn write_values(
     table: &Table,
     values: &[u32],
     present: Present,
+    sender: Sender,
 ) -> Result<(), WriteError> {
     for (index, &bits) in values.iter().enumerate().take(table.len()) {
         if present >> index & 1 == 0 {
             continue;
         }
         if let Some(item) = table.item(index) {
-            doc.number_item(item.name, number(item.kind, bits))?;
+            doc.number_item(item.name, number(item.kind, bits, sender))?;
         }
     }
     Ok(())
 }
 
-/// A wire value of `kind` as the writer takes it.
+/// A wire value of `kind` as the writer takes it from `sender`.
 #[inline(always)]
-pub(crate) fn number(kind: Kind, bits: u32) -> Number {
-    match kind {
-        Kind::Float => Number::Float(f32::from_bits(bits)),
-        Kind::Int | Kind::Byte => Number::Int(bits as i32),
+pub(crate) fn number(kind: Kind, bits: u32, sender: Sender) -> Number {
+    match (kind, sender) {
+        (Kind::Float, Sender::Client) => Number::Float(f32::from_bits(bits)),
+        (Kind::Float, Sender::Robot) => Number::Reading(f32::from_bits(bits)),
+        (Kind::Int | Kind::Byte, _) => Number::Int(bits as i32),
     }
 }
 
@@ -672,7 +674,11 @@ macro_rules! item_set {
                         doc.tagged_item(
                             TAGS,
                             NAME,
-                            $crate::proto::message::items::number(<$ty as ItemValue>::KIND, bits),
+                            $crate::proto::message::items::number(
+                                <$ty as ItemValue>::KIND,
+                                bits,
+                                $crate::proto::message::items::Sender::Robot,
+                            ),
                         )?;
                     }
                 )*

@@ -343,7 +343,7 @@ impl Request {
             Self::NavTask(task) => {
                 for point in &task.points {
                     let (table, present) = point.to_block(&mut values);
-                    write_values(&mut doc, table, &values, present)?;
+                    write_values(&mut doc, table, &values, present, Sender::Client)?;
                     doc.end_items_block()?;
                 }
                 (Table::EMPTY, 0)
@@ -374,7 +374,7 @@ impl Request {
         // Nothing present writes nothing; the call is skipped (a 1003 request, whose blocks
         // are written above, measured faster for it).
         if present != 0 {
-            write_values(&mut doc, table, &values, present)?;
+            write_values(&mut doc, table, &values, present, Sender::Client)?;
         }
         doc.finish()
     }
@@ -502,8 +502,7 @@ impl Response {
         out: &mut [u8],
         writing: Writing,
     ) -> Result<usize, WriteError> {
-        let mut doc = DocumentWriter::begin(out, self.message_type().raw(), self.command(), time)?
-            .with_non_finite();
+        let mut doc = DocumentWriter::begin(out, self.message_type().raw(), self.command(), time)?;
         // `$items` for the answer's item set `$set`, whatever its Type.
         macro_rules! with_items {
             ($set:ident => $items:expr) => {
@@ -527,7 +526,7 @@ impl Response {
                 // The block is written by one call for every Type, from its table and values.
                 let mut values = [0; MAX_ITEMS];
                 let (table, present) = with_items!(set => set.to_block(&mut values));
-                write_values(&mut doc, table, &values, present)?;
+                write_values(&mut doc, table, &values, present, Sender::Robot)?;
             }
         }
         doc.finish()

@@ -256,27 +256,29 @@ impl<const OPEN: usize, const CLOSE: usize> Tags for &ItemTags<OPEN, CLOSE> {
 pub(crate) enum Number {
     /// An integer.
     Int(i32),
-    /// A float, written in its shortest exact form.
+    /// A float of a request, written in its shortest exact form; NaN and infinities are
+    /// refused, since the robot would act on them.
     Float(f32),
+    /// A float of an answer: as [`Number::Float`], but NaN and infinities are written as C's
+    /// `printf` writes them (`nan`, `-nan`, `inf`, `-inf`), for a reading the robot does
+    /// not have (an unknown pose). Only answers make these, so a program that writes no
+    /// answer (the panel) does not link that writer.
+    Reading(f32),
 }
 
 impl Number {
     /// Writes the number's text at the start of `out` and returns its length; the bytes
-    /// after it may be overwritten. A NaN or an infinity is written as C prints it if
-    /// `non_finite` allows, else refused naming `item`.
+    /// after it may be overwritten. A float that cannot be written is refused naming `item`.
     #[inline(always)]
-    fn format(
-        self,
-        item: ItemName,
-        non_finite: bool,
-        out: &mut [u8; NUMBER_MAX],
-    ) -> Result<usize, WriteError> {
+    fn format(self, item: ItemName, out: &mut [u8; NUMBER_MAX]) -> Result<usize, WriteError> {
         match self {
             Self::Int(value) => Ok(out
                 .first_chunk_mut::<I32_TEXT_MAX>()
                 .map_or(0, |out| number::write_i32(value, out))),
-            Self::Float(value) if value.is_finite() => Ok(number::write_finite(value, out)),
-            Self::Float(value) if non_finite => Ok(number::write_non_finite(value, out)),
+            Self::Float(value) | Self::Reading(value) if value.is_finite() => {
+                Ok(number::write_finite(value, out))
+            }
+            Self::Reading(value) => Ok(number::write_non_finite(value, out)),
             Self::Float(_) => Err(WriteError::NotFinite { item }),
         }
     }
@@ -306,8 +308,6 @@ pub struct DocumentWriter<'a> {
     len: usize,
     items_open: bool,
     blocks: usize,
-    /// Whether a NaN or an infinity is written as `nan` or `inf` rather than refused.
-    non_finite: bool,
 }
 
 impl<'a> DocumentWriter<'a> {
@@ -347,16 +347,7 @@ impl<'a> DocumentWriter<'a> {
             len: total,
             items_open: false,
             blocks: 0,
-            non_finite: false,
         })
-    }
-
-    /// Writes NaN and infinities as C's `printf` does (`nan`, `-nan`, `inf`, `-inf`)
-    /// instead of refusing them: an answer may report a reading the robot does not have
-    /// (an unknown pose), a request must not carry one.
-    pub(crate) fn with_non_finite(mut self) -> Self {
-        self.non_finite = true;
-        self
     }
 
     /// Writes an integer item.
@@ -410,8 +401,10 @@ impl<'a> DocumentWriter<'a> {
             .get_mut(self.len..)
             .and_then(|out| out.first_chunk_mut());
         let Some(window) = window else {
+            let mut text = [0; NUMBER_MAX];
+            let n = value.format(name, &mut text)?;
             let rest = self.buf.get_mut(self.len..).unwrap_or_default();
-            self.len += number_line(rest, name, value, self.non_finite)?;
+            self.len += text_line(rest, name, prefix(&text, n))?;
             return Ok(());
         };
         let start = tags.open(window);
@@ -419,7 +412,7 @@ impl<'a> DocumentWriter<'a> {
             .get_mut(start..)
             .and_then(|rest| rest.first_chunk_mut::<NUMBER_MAX>());
         let n = match text {
-            Some(text) => value.format(name, self.non_finite, text)?,
+            Some(text) => value.format(name, text)?,
             None => 0,
         };
         let end = start + n.min(NUMBER_MAX);
@@ -470,20 +463,14 @@ impl<'a> DocumentWriter<'a> {
 }
 
 /// [`DocumentWriter::number_item`]'s line at the start of `out`, near the buffer's end,
-/// where the line's window does not fit: the number is formatted aside, and the line
-/// written with one bounds check. Returns its length.
+/// where the line's window does not fit: the number's `text` was formatted aside, and the
+/// line is written with one bounds check. Returns its length.
 // Out of line: one copy serves every item line, whichever code writes it; and apart from
-// the writer, whose fields can then stay in registers.
+// the writer, whose fields can then stay in registers. The number is formatted by the
+// caller, where what kind of number it is may be known.
 #[inline(never)]
-fn number_line(
-    out: &mut [u8],
-    name: ItemName,
-    value: Number,
-    non_finite: bool,
-) -> Result<usize, WriteError> {
-    let mut text = [0; NUMBER_MAX];
-    let n = value.format(name, non_finite, &mut text)?;
-    let (name, text) = (name.as_bytes(), prefix(&text, n));
+fn text_line(out: &mut [u8], name: ItemName, text: &[u8]) -> Result<usize, WriteError> {
+    let name = name.as_bytes();
     let total = ITEM_INDENT.len() + 2 * name.len() + text.len() + 6;
     let out = out.get_mut(..total).ok_or(WriteError::BufferFull)?;
     let mut out = Cursor(out);
