@@ -548,46 +548,49 @@ fn is_char_reference(entity: &[u8]) -> bool {
 }
 
 /// A byte that may appear in an XML name (as far as this reader checks names).
-const NAME_BYTE: u8 = 1;
+const NAME_BYTE: u8 = 1 << 1;
 /// ASCII whitespace, as [`u8::is_ascii_whitespace`] defines it.
-const SPACE_BYTE: u8 = 2;
+const SPACE_BYTE: u8 = 1 << 2;
 /// A byte that ends plain text: `<` (markup) or `&` (a reference).
-const TEXT_END: u8 = 4;
+const TEXT_END: u8 = 1 << 3;
 
-/// The class of every byte, so that the scanning loops cost one lookup per byte instead of
-/// a chain of comparisons.
-static CLASSES: [u8; 256] = classes();
+/// The class of every byte, two bits each (0: none of the others; 1: a name byte; 2:
+/// whitespace; 3: the end of plain text), so that the scanning loops cost one lookup per
+/// byte instead of a chain of comparisons, in 64 bytes of flash.
+static CLASSES: [u8; 64] = classes();
 
 #[expect(
     clippy::indexing_slicing,
-    reason = "the index is below 256 by the loop's bound"
+    reason = "the index is below 64 by the loop's bound"
 )]
-const fn classes() -> [u8; 256] {
-    let mut table = [0; 256];
+const fn classes() -> [u8; 64] {
+    let mut table = [0; 64];
     let mut b = 0;
     while b < 256 {
         let c = b as u8;
-        table[b] =
+        let class =
             if c.is_ascii_alphanumeric() || matches!(c, b'_' | b'-' | b'.' | b':') || c >= 0x80 {
-                NAME_BYTE
+                1
             } else if c.is_ascii_whitespace() {
-                SPACE_BYTE
+                2
             } else if c == b'<' || c == b'&' {
-                TEXT_END
+                3
             } else {
                 0
             };
+        table[b / 4] |= class << (b % 4 * 2);
         b += 1;
     }
     table
 }
 
-/// Whether `b` is of one of the `classes`.
+/// Whether `b` is of one of the `classes` (a set of `1 << class`).
 #[inline(always)]
 fn is(b: u8, classes: u8) -> bool {
-    CLASSES
-        .get(usize::from(b))
-        .is_some_and(|c| c & classes != 0)
+    let class = CLASSES
+        .get(usize::from(b / 4))
+        .map_or(0, |four| four >> (b % 4 * 2) & 3);
+    classes >> class & 1 != 0
 }
 
 /// Length of the run of bytes of `classes` at the start of `bytes`.
