@@ -22,8 +22,8 @@ use std::path::{Path, PathBuf};
 
 // The codec's number parser and the settings' text, as the firmware compiles them: plain
 // `core` Rust, so they build here too. Only part of each is used.
-#[allow(dead_code)]
-#[path = "src/proto/xml/number.rs"]
+#[allow(dead_code, unused_imports)]
+#[path = "src/proto/xml/number/mod.rs"]
 mod number;
 #[allow(dead_code)]
 #[path = "src/settings/text.rs"]
@@ -130,7 +130,7 @@ fn feature_env(feature: &str) -> String {
 /// Fails the build on an invalid `X30_*` variable, naming it and what it allows.
 fn check_settings() {
     println!("cargo:rerun-if-changed=src/settings/text.rs");
-    println!("cargo:rerun-if-changed=src/proto/xml/number.rs");
+    println!("cargo:rerun-if-changed=src/proto/xml/number");
     let value = |key: text::Key| {
         println!("cargo:rerun-if-env-changed={}", key.variable());
         env::var(key.variable()).ok()

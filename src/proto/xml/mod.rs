@@ -66,9 +66,10 @@ pub struct Envelope {
 /// `<Items>` block to `on_items` with the `Type` and `Command` the document declares.
 ///
 /// Items can only be interpreted once `Type` is known. Real documents put it first, so
-/// blocks are normally read as the pass reaches them; a block that comes before `Type`
-/// or `Command` (and every block after it, to keep their order) is remembered and read
-/// once the pass has found both. Returns the envelope and the number of blocks.
+/// blocks are normally read as the pass reaches them; if a block comes before `Type` or
+/// `Command`, the pass only checks it (and every block after it, to keep their order), and
+/// a second pass reads them all, the envelope known. Returns the envelope and the number of
+/// blocks.
 pub fn read_document<'a, E>(
     input: &'a [u8],
     on_items: impl FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
@@ -99,13 +100,34 @@ where
 /// shortcut. `on_items` is called through a pointer (once per block), so that one copy of
 /// the document reader serves requests and responses alike.
 pub(crate) fn read_tokens<'a, E>(
-    mut tokens: Tokenizer<'a>,
+    tokens: Tokenizer<'a>,
     on_items: &mut dyn FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
 ) -> Result<(Envelope, usize), E>
 where
     E: From<StructureError>,
 {
-    let input = tokens.input();
+    let start = tokens.clone();
+    match read_pass(tokens, on_items, None)? {
+        (envelope, blocks, false) => Ok((envelope, blocks)),
+        // The first pass read no block (the first came before the header was complete),
+        // and checked the whole document: the second reads every block, in order.
+        (envelope, _, true) => read_pass(start, on_items, Some(envelope))
+            .map(|(envelope, blocks, _)| (envelope, blocks)),
+    }
+}
+
+/// One pass of [`read_tokens`]: reads the document, and hands each block to `on_items` with
+/// the `known` envelope, or without one with the header read so far if it is complete and
+/// no block was passed over. Returns the envelope, the number of blocks, and whether any
+/// block was passed over (only checked), for want of an envelope.
+fn read_pass<'a, E>(
+    mut tokens: Tokenizer<'a>,
+    on_items: &mut dyn FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
+    known: Option<Envelope>,
+) -> Result<(Envelope, usize, bool), E>
+where
+    E: From<StructureError>,
+{
     let xml = |e: XmlError| E::from(StructureError::Xml(e));
     if !tokens.plain_root(b"PatrolDevice") {
         match tokens.next_token().map_err(xml)? {
@@ -114,8 +136,7 @@ where
         }
     }
     let mut header = Header::default();
-    let mut deferred = [const { 0..0 }; MAX_ITEMS_BLOCKS];
-    let mut deferred_count = 0;
+    let mut passed_over = false;
     let mut blocks = 0;
     // The header element real documents write next.
     let mut next_header = HeaderElement::ORDER.iter();
@@ -145,17 +166,15 @@ where
                 None => break,
             }
         };
-        let (live, empty) = match token {
-            Token::Start(b"Items") => (true, false),
-            Token::Empty(b"Items") => (false, true),
+        let empty = match token {
+            Token::Start(b"Items") => false,
+            Token::Empty(b"Items") => true,
             Token::Start(tag) => {
                 match HeaderElement::named(tag) {
                     Some(element) => {
                         header.set(element, header_text(&mut tokens, element.name())?)?
                     }
-                    None => {
-                        skip_element(&mut tokens).map_err(xml)?;
-                    }
+                    None => skip_element(&mut tokens).map_err(xml)?,
                 }
                 continue;
             }
@@ -165,32 +184,26 @@ where
         if blocks > MAX_ITEMS_BLOCKS {
             return Err(StructureError::TooManyItemsBlocks.into());
         }
-        match (header.message_type, header.command) {
-            (Some(message_type), Some(command)) if deferred_count == 0 => {
-                let envelope = Envelope {
-                    message_type,
-                    command,
-                    time: header.time,
-                };
-                if empty {
-                    on_items(&envelope, &mut Items::fragment(&tokens, &[]))?;
-                } else {
-                    let mut items = Items::inside(tokens.clone());
-                    on_items(&envelope, &mut items)?;
-                    tokens = items.finish().map_err(xml)?;
-                }
+        let envelope = match (known, header.message_type, header.command) {
+            (Some(envelope), ..) => Some(envelope),
+            (None, Some(message_type), Some(command)) if !passed_over => Some(Envelope {
+                message_type,
+                command,
+                time: header.time,
+            }),
+            _ => None,
+        };
+        match envelope {
+            Some(envelope) if empty => on_items(&envelope, &mut Items::empty(&tokens))?,
+            Some(envelope) => {
+                let mut items = Items::inside(tokens.clone());
+                on_items(&envelope, &mut items)?;
+                tokens = items.finish().map_err(xml)?;
             }
-            _ => {
-                let start = tokens.offset();
-                let end = if live {
-                    skip_element(&mut tokens).map_err(xml)?
-                } else {
-                    start
-                };
-                if let Some(slot) = deferred.get_mut(deferred_count) {
-                    *slot = start..end;
-                    deferred_count += 1;
-                }
+            None if empty => passed_over = true,
+            None => {
+                passed_over = true;
+                skip_element(&mut tokens).map_err(xml)?;
             }
         }
     }
@@ -203,25 +216,17 @@ where
             .ok_or(StructureError::MissingElement("Command"))?,
         time: header.time,
     };
-    for range in deferred.iter().take(deferred_count) {
-        let content = input.get(range.clone()).unwrap_or_default();
-        let mut items = Items::fragment(&tokens, content);
-        on_items(&envelope, &mut items)?;
-        items.finish().map_err(xml)?;
-    }
-    Ok((envelope, blocks))
+    Ok((envelope, blocks, passed_over))
 }
 
-/// Consumes the rest of an element whose start tag was just read; returns the offset of
-/// its end tag.
-fn skip_element(tokens: &mut Tokenizer<'_>) -> Result<usize, XmlError> {
+/// Consumes the rest of an element whose start tag was just read.
+fn skip_element(tokens: &mut Tokenizer<'_>) -> Result<(), XmlError> {
     let depth = tokens.depth();
     loop {
-        let at = tokens.offset();
         match tokens.next_token()? {
-            Some(Token::End(_)) if tokens.depth() < depth => return Ok(at),
+            Some(Token::End(_)) if tokens.depth() < depth => return Ok(()),
             Some(_) => {}
-            None => return Ok(at),
+            None => return Ok(()),
         }
     }
 }
@@ -366,13 +371,12 @@ impl<'a> Items<'a> {
         }
     }
 
-    /// Items read from the content of a block remembered earlier by the document's
-    /// tokenizer `document`, with or without the shortcut as it reads.
-    fn fragment(document: &Tokenizer<'a>, content: &'a [u8]) -> Self {
+    /// The items of an empty block (`<Items/>`): none.
+    fn empty(tokens: &Tokenizer<'a>) -> Self {
         Self {
-            tokens: document.fragment(content),
-            depth: 0,
-            done: false,
+            tokens: tokens.clone(),
+            depth: tokens.depth(),
+            done: true,
         }
     }
 

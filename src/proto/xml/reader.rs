@@ -72,7 +72,7 @@ enum Place {
     Epilog,
 }
 
-/// Splits a document, or a fragment of one, into [`Token`]s.
+/// Splits a document into [`Token`]s.
 #[derive(Debug, Clone)]
 pub struct Tokenizer<'a> {
     input: &'a [u8],
@@ -80,7 +80,6 @@ pub struct Tokenizer<'a> {
     open: [&'a [u8]; MAX_DEPTH],
     depth: usize,
     place: Place,
-    fragment: bool,
     /// Whether [`Tokenizer::simple_element`] may take its shortcut.
     shortcut: bool,
 }
@@ -115,7 +114,6 @@ impl<'a> Tokenizer<'a> {
             open: [&[]; MAX_DEPTH],
             depth: 0,
             place: Place::Prolog,
-            fragment: false,
             shortcut: true,
         }
     }
@@ -127,18 +125,6 @@ impl<'a> Tokenizer<'a> {
         Self {
             shortcut: false,
             ..self
-        }
-    }
-
-    /// A tokenizer for element content this one has already checked, such as the inside of
-    /// an `<Items>` block remembered for later (any number of elements and text at the
-    /// top), taking the shortcut where this one does.
-    pub fn fragment(&self, content: &'a [u8]) -> Self {
-        Self {
-            place: Place::Root,
-            fragment: true,
-            shortcut: self.shortcut,
-            ..Self::document(content)
         }
     }
 
@@ -234,7 +220,7 @@ impl<'a> Tokenizer<'a> {
     // reader's loop slower by several percent (measured).
     #[inline(never)]
     pub fn plain_root(&mut self, name: &'static [u8]) -> bool {
-        if !self.shortcuts_on() || self.place != Place::Prolog || self.fragment {
+        if !self.shortcuts_on() || self.place != Place::Prolog {
             return false;
         }
         let rest = self.rest();
@@ -303,7 +289,7 @@ impl<'a> Tokenizer<'a> {
             return false;
         }
         self.depth -= 1;
-        if self.depth == 0 && !self.fragment {
+        if self.depth == 0 {
             self.place = Place::Epilog;
         }
         self.pos += at + name.len() + 3;
@@ -313,8 +299,8 @@ impl<'a> Tokenizer<'a> {
     /// Where a simple element may start: inside an element, with room for one more level,
     /// after whitespace; the offset of its `<` and what follows it.
     fn simple_start(&self) -> Option<(usize, &'a [u8])> {
-        // Text is only allowed inside an element (or a fragment).
-        let inside = self.place == Place::Root && (self.depth > 0 || self.fragment);
+        // Text is only allowed inside an element.
+        let inside = self.place == Place::Root && self.depth > 0;
         if !self.shortcuts_on() || !inside || self.depth >= MAX_DEPTH {
             return None;
         }
@@ -377,16 +363,16 @@ impl<'a> Tokenizer<'a> {
         loop {
             let rest = self.rest();
             let Some(&first) = rest.first() else {
-                return match (self.place, self.fragment) {
-                    (_, true) | (Place::Epilog, _) if self.depth == 0 => Ok(None),
-                    (Place::Prolog, _) => Err(self.error(XmlErrorKind::NoRoot)),
+                return match self.place {
+                    Place::Epilog if self.depth == 0 => Ok(None),
+                    Place::Prolog => Err(self.error(XmlErrorKind::NoRoot)),
                     _ => Err(self.error(XmlErrorKind::UnexpectedEnd)),
                 };
             };
             if first != b'<' {
                 let len = rest.iter().position(|&b| b == b'<').unwrap_or(rest.len());
                 let text = rest.get(..len).unwrap_or_default();
-                if self.place != Place::Root || self.depth == 0 && !self.fragment {
+                if self.place != Place::Root || self.depth == 0 {
                     if text.iter().all(u8::is_ascii_whitespace) {
                         self.pos += len;
                         continue;
@@ -441,7 +427,7 @@ impl<'a> Tokenizer<'a> {
             return Err(self.error(XmlErrorKind::MismatchedTag));
         }
         self.depth -= 1;
-        if self.depth == 0 && !self.fragment {
+        if self.depth == 0 {
             self.place = Place::Epilog;
         }
         self.pos += 2 + name_len + close + 1;
@@ -461,7 +447,7 @@ impl<'a> Tokenizer<'a> {
         // '<' + name + attributes + '>' or '/>'
         let tag_len = 1 + name_len + attrs_len + if empty { 2 } else { 1 };
         if empty {
-            if self.depth == 0 && !self.fragment {
+            if self.depth == 0 {
                 self.place = Place::Epilog;
             }
             self.pos += tag_len;

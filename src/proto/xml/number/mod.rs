@@ -1,0 +1,506 @@
+//! Number text of the protocol: decimal integers and C `float`s, without `core::fmt`.
+//!
+//! The robot writes `float` fields with up to 9 significant digits (`-0.00023393621`) and reads
+//! whatever decimal we send. core's float parser (`str::parse::<f32>`, ~18 KiB of flash for its
+//! tables) and core's float formatting (`{}` on `f32`, ~14 KiB) are far too big for the panel, so
+//! this module does both by hand, in integer arithmetic only: the Cortex-M4F has no
+//! double-precision FPU, and software `f64` alone would cost ~4 KiB. No 64-bit division is
+//! used anywhere (it would pull in a ~1 KiB library routine).
+//!
+//! # Exactly, and fast where it is safe
+//!
+//! Both directions are exact conversions in big-integer arithmetic ([`exact`]):
+//!
+//! - Reading: the text is reduced to `n·10^e` with up to 19 significant digits in `n: u64`
+//!   (digits past the 19th, up to [`EXACT_DIGITS`], are read again only where they could
+//!   decide), and `n·10^e` is divided out to 27 bits and rounded to `f32`, half to even.
+//! - Writing: `write_f32` prints the shortest decimal that reads back as the same `f32`, and
+//!   of those the nearest (between two equally near, the larger magnitude), without exponent,
+//!   exactly as `format!("{}", x)` does. Its digits come one at a time from the float and the
+//!   ends of its rounding interval, scaled to integers, until the decimal cut off there, or
+//!   one unit above it, falls inside the interval.
+//!
+//! That is all a `compact` build has. The default build first tries approximations that
+//! settle almost every number in a few multiplications, and are exact wherever they answer
+//! ([`fast`]); the rest goes the exact way. The chosen digits (at most nine) are made at once,
+//! eight of them in one word's lanes, and the text, zeros included, is written with 8-byte
+//! stores.
+//!
+//! Neither direction allocates, uses `unsafe`, or can panic; all buffers are fixed-size arrays.
+
+mod big;
+mod exact;
+#[cfg(not(feature = "compact"))]
+mod fast;
+#[cfg(feature = "compact")]
+mod plain;
+
+use big::Big;
+#[cfg(not(feature = "compact"))]
+use fast::render;
+#[cfg(not(feature = "compact"))]
+pub use fast::write_i32;
+#[cfg(feature = "compact")]
+use plain::render;
+#[cfg(feature = "compact")]
+pub use plain::write_i32;
+
+/// Why a number's text was rejected.
+///
+/// (Its `defmt::Format` impl is in `proto::display`: the build script includes this file,
+/// and has no defmt.)
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum NumberError {
+    /// The text is empty.
+    Empty,
+    /// The text is not a decimal number (names the problem by being this variant).
+    Invalid,
+    /// The number is well formed but does not fit the target type.
+    OutOfRange,
+    /// The value is NaN or infinite and has no text form in the protocol.
+    NotFinite,
+}
+
+/// Longest text `write_f32` can produce (sign, "0." and 45 fraction digits, for `-1e-45`).
+///
+/// The longest integer form is 39 digits (`f32::MAX`); the last digit of any shortest form is at
+/// or above `10^-45`, because the rounding interval of every `f32` is at least `1.4e-45` wide.
+pub const F32_TEXT_MAX: usize = 48;
+
+/// Longest text `write_i32` can produce (`-2147483648`).
+pub const I32_TEXT_MAX: usize = 11;
+
+// ---------------------------------------------------------------------------------------------
+// Integers
+// ---------------------------------------------------------------------------------------------
+
+/// Parses an optionally signed decimal integer (no exponent, no '.', leading '+' allowed) as i64; overflow -> OutOfRange.
+pub fn parse_i64(text: &[u8]) -> Result<i64, NumberError> {
+    let (value, used) = scan_i64(text);
+    match value {
+        Err(NumberError::Empty) => Err(NumberError::Empty),
+        // Anything after the digits makes the text Invalid, even if they overflowed.
+        _ if used != text.len() => Err(NumberError::Invalid),
+        value => value,
+    }
+}
+
+/// The integer at the start of `text` and the length of its text, if it is one that
+/// [`parse_int`] accepts: `parse_int(&text[..n])` gives the same value. For reading a
+/// number and finding where its text ends in one pass.
+pub fn parse_int_prefix<T: TryFrom<i64>>(text: &[u8]) -> Option<(T, usize)> {
+    let (value, used) = scan_i64(text);
+    Some((T::try_from(value.ok()?).ok()?, used))
+}
+
+/// The value of the sign and digits at the start of `text`, and their length; reading
+/// stops at the first byte that cannot continue them.
+fn scan_i64(text: &[u8]) -> (Result<i64, NumberError>, usize) {
+    let (negative, body) = match split_sign(text) {
+        Ok(split) => split,
+        Err(e) => return (Err(e), 0),
+    };
+    let digits = body.iter().take_while(|c| c.is_ascii_digit()).count();
+    let used = text.len() - body.len() + digits;
+    if digits == 0 {
+        return (Err(NumberError::Invalid), used);
+    }
+    // Accumulate towards the negative side: i64::MIN has no positive counterpart.
+    let mut value: i64 = 0;
+    let mut overflow = false;
+    for &c in body.get(..digits).unwrap_or_default() {
+        match value
+            .checked_mul(10)
+            .and_then(|v| v.checked_sub(i64::from(c - b'0')))
+        {
+            Some(v) => value = v,
+            None => overflow = true,
+        }
+    }
+    let value = match (overflow, negative) {
+        (true, _) => Err(NumberError::OutOfRange),
+        (false, true) => Ok(value),
+        (false, false) => value.checked_neg().ok_or(NumberError::OutOfRange),
+    };
+    (value, used)
+}
+
+/// Parses like parse_i64 and converts into a narrower integer type, OutOfRange if it does not fit.
+pub fn parse_int<T: TryFrom<i64>>(text: &[u8]) -> Result<T, NumberError> {
+    T::try_from(parse_i64(text)?).map_err(|_| NumberError::OutOfRange)
+}
+
+/// Splits off one leading '+' or '-'; `Empty` for empty text.
+fn split_sign(text: &[u8]) -> Result<(bool, &[u8]), NumberError> {
+    match text.split_first() {
+        None => Err(NumberError::Empty),
+        Some((b'-', rest)) => Ok((true, rest)),
+        Some((b'+', rest)) => Ok((false, rest)),
+        Some(_) => Ok((false, text)),
+    }
+}
+
+/// The value of an ASCII decimal digit.
+fn digit(c: u8) -> Option<u8> {
+    let d = c.wrapping_sub(b'0');
+    (d < 10).then_some(d)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Floats as integers
+// ---------------------------------------------------------------------------------------------
+
+/// Bit pattern of +infinity; as a [`Binary`] it decodes to 2^128, the value just above `f32::MAX`.
+const INF_BITS: u32 = 0x7f80_0000;
+
+/// A non-negative `f32` (or the infinity pattern, as 2^128) as `m·2^e` with `m < 2^24`.
+#[derive(Clone, Copy)]
+struct Binary {
+    m: u32,
+    e: i32,
+}
+
+impl Binary {
+    /// Splits the bits of a non-negative `f32` into significand and exponent.
+    fn decode(bits: u32) -> Self {
+        let biased = (bits >> 23) & 0xff;
+        let fraction = bits & 0x007f_ffff;
+        match biased {
+            0 => Binary {
+                m: fraction,
+                e: -149,
+            },
+            _ => Self::decode_normal(bits),
+        }
+    }
+
+    /// [`Binary::decode`] for the bits of a normal float.
+    fn decode_normal(bits: u32) -> Self {
+        Binary {
+            m: bits & 0x007f_ffff | 1 << 23,
+            // At most 255: the conversion is lossless.
+            e: (bits >> 23 & 0xff) as i32 - 150,
+        }
+    }
+
+    /// Whether the gap to the next smaller float is half the gap to the next larger one
+    /// (a power of two above the smallest normal).
+    fn narrow_below(self) -> bool {
+        self.m == 1 << 23 && self.e > -149
+    }
+}
+
+/// The bits of a float rounded to the last place `2^lsb` (`lsb >= -149`), where `kept` is
+/// its significand there and `up` says whether it rounds up; [`INF_BITS`] on overflow.
+fn float_bits(lsb: i32, kept: u32, up: bool) -> u32 {
+    // `lsb + 149` is the biased exponent less one for a normal float (whose `kept` holds the
+    // leading one), 0 for a subnormal; a carry out of the significand steps the exponent, as
+    // it should, and reaches INF_BITS on overflow.
+    let exponent = ((lsb + 149) as u32).min(255);
+    ((exponent << 23) + kept + u32::from(up)).min(INF_BITS)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Parsing floats
+// ---------------------------------------------------------------------------------------------
+
+/// Parses a decimal float: optional sign, digits with optional '.', optional exponent (e/E, sign, digits).
+///
+/// No surrounding whitespace, no "inf"/"nan" (answers read those with
+/// [`parse_non_finite`]), no hex; ".5" and "5." are accepted (C `strtod` does). The result
+/// is correctly rounded (round-half-even) to `f32` for any number of digits: 19 significant
+/// ones are read at once, and only a text that lies near the midpoint between two floats
+/// after them is read again, with up to 120. Values that round above `f32::MAX`
+/// are [`NumberError::OutOfRange`]; values too small for the smallest subnormal become ±0.
+pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
+    let decimal = Decimal::scan(text)?;
+    let magnitude = decimal.magnitude(text)?;
+    Ok(if decimal.negative {
+        -magnitude
+    } else {
+        magnitude
+    })
+}
+
+/// Reads the words C's `printf` writes for a float that has no numeric value: `nan`, `inf`
+/// or `infinity`, optionally signed, in any ASCII case (`-nan`, `INF`).
+///
+/// Only answers are read with it, where a robot reports a reading it does not have (an
+/// unknown pose). [`parse_f32`] refuses these words: a speed typed on the console or a
+/// request's coordinate must be a number.
+pub fn parse_non_finite(text: &[u8]) -> Option<f32> {
+    let (negative, word) = split_sign(text).ok()?;
+    let magnitude = match folded(word) {
+        NAN => f32::NAN,
+        INF | INFINITY => f32::INFINITY,
+        _ => return None,
+    };
+    Some(if negative { -magnitude } else { magnitude })
+}
+
+/// A word of up to eight bytes as one number, its letters folded to lower case; 0 for a
+/// longer one. Setting bit 5 turns no other byte into a letter, and no byte into zero, so
+/// words of different lengths never share a number.
+const fn folded(word: &[u8]) -> u64 {
+    if word.len() > 8 {
+        return 0;
+    }
+    let mut key = 0;
+    let mut rest = word;
+    while let [c, tail @ ..] = rest {
+        key = key << 8 | (*c | 0x20) as u64;
+        rest = tail;
+    }
+    key
+}
+
+/// [`folded`] of the words C prints for NaN and infinity.
+const NAN: u64 = folded(b"nan");
+const INF: u64 = folded(b"inf");
+const INFINITY: u64 = folded(b"infinity");
+
+/// A mantissa at or above this takes no more digits: 19 significant digits are kept, and any
+/// 19 fit a `u64`.
+const MANTISSA_FULL: u64 = 1_000_000_000_000_000_000;
+
+/// Cap on an exponent's digits: far beyond any float, yet adding text-derived offsets to it
+/// cannot overflow (additions saturate in any case).
+const EXPONENT_CAP: i32 = 1 << 30;
+
+/// A decimal `mantissa·10^exponent`, plus `sticky` if non-zero digits were dropped.
+struct Decimal {
+    negative: bool,
+    mantissa: u64,
+    exponent: i32,
+    sticky: bool,
+    /// Where in the text the first dropped digit is (0 if none is).
+    dropped_at: usize,
+}
+
+impl Decimal {
+    /// Reads the syntax of a float: sign, digits and '.', optional exponent.
+    fn scan(text: &[u8]) -> Result<Self, NumberError> {
+        let (negative, body) = split_sign(text)?;
+        // The shortcut reads the usual text faster; a `compact` build leaves it out.
+        #[cfg(not(feature = "compact"))]
+        if let Some(decimal) = Self::scan_short(negative, body) {
+            return Ok(decimal);
+        }
+        let mut decimal = Decimal {
+            negative,
+            mantissa: 0,
+            exponent: 0,
+            sticky: false,
+            dropped_at: 0,
+        };
+        let mut written_exponent = 0;
+        let mut any_digit = false;
+        let mut after_point = false;
+        for (i, &c) in body.iter().enumerate() {
+            let d = match c {
+                b'0'..=b'9' => c - b'0',
+                b'.' if !after_point => {
+                    after_point = true;
+                    continue;
+                }
+                b'e' | b'E' => {
+                    written_exponent = scan_exponent(body.get(i + 1..).unwrap_or_default())?;
+                    break;
+                }
+                _ => return Err(NumberError::Invalid),
+            };
+            any_digit = true;
+            // Leading zeros are taken too, and leave the mantissa zero.
+            if decimal.mantissa < MANTISSA_FULL {
+                decimal.mantissa = decimal.mantissa * 10 + u64::from(d);
+                if after_point {
+                    decimal.exponent = decimal.exponent.saturating_sub(1);
+                }
+            } else {
+                // No digit is dropped at the text's start: 0 means none yet.
+                if decimal.dropped_at == 0 {
+                    decimal.dropped_at = text.len() - body.len() + i;
+                }
+                decimal.sticky |= d != 0;
+                if !after_point {
+                    decimal.exponent = decimal.exponent.saturating_add(1);
+                }
+            }
+        }
+        if !any_digit {
+            return Err(NumberError::Invalid);
+        }
+        decimal.exponent = decimal.exponent.saturating_add(written_exponent);
+        Ok(decimal)
+    }
+    /// The correctly rounded magnitude; `text` is what [`Decimal::scan`] read, for the rare
+    /// decimal whose dropped digits decide it.
+    fn magnitude(&self, text: &[u8]) -> Result<f32, NumberError> {
+        if self.mantissa == 0 {
+            return Ok(0.0);
+        }
+        // The value lies in [10^exponent, 10^(19+exponent)].
+        if self.exponent > 38 {
+            // At least 10^39 > f32::MAX.
+            return Err(NumberError::OutOfRange);
+        }
+        if self.exponent < -64 {
+            // At most 10^-46, less than half the smallest subnormal 2^-149.
+            return Ok(0.0);
+        }
+        // Now -64 <= exponent <= 38: below 10^57, and with the digits `exact` appends (at
+        // most 101, each lowering the exponent) within `exact::to_f32`'s bounds.
+        // The default build's approximation settles almost every decimal; the rest, and
+        // every decimal in a `compact` build, is read exactly.
+        #[cfg(not(feature = "compact"))]
+        if let Some(bits) = self.approximate() {
+            return finite(bits);
+        }
+        let (digits, exponent, sticky) = self.exact(text);
+        finite(exact::to_f32(digits, exponent, sticky))
+    }
+
+    /// The decimal with enough digits for [`exact::to_f32`]: with digits dropped, a midpoint
+    /// may lie between the 19 kept and the whole text, and the text's later digits decide.
+    /// Each is appended in turn (the point is passed over), up to [`EXACT_DIGITS`]; `text`
+    /// is what [`Decimal::scan`] read.
+    fn exact(&self, text: &[u8]) -> (Big, i32, bool) {
+        let mut digits = Big::from_u64(self.mantissa);
+        let (mut exponent, mut sticky) = (self.exponent, false);
+        if !self.sticky {
+            return (digits, exponent, sticky);
+        }
+        // `exponent` is the 19 kept digits' (each dropped digit before the point raised
+        // it), so each digit appended lowers it.
+        let dropped = text.get(self.dropped_at..).unwrap_or_default();
+        let mut room = EXACT_DIGITS - 19;
+        for &c in dropped.iter().take_while(|&&c| c | 0x20 != b'e') {
+            let Some(d) = digit(c) else {
+                continue;
+            };
+            if room > 0 {
+                digits.mul_add(10, u32::from(d));
+                exponent = exponent.saturating_sub(1);
+                room -= 1;
+            } else {
+                sticky |= d != 0;
+            }
+        }
+        (digits, exponent, sticky)
+    }
+}
+/// The float of `bits`, which is [`INF_BITS`] or more when the decimal rounded above
+/// `f32::MAX`.
+fn finite(bits: u32) -> Result<f32, NumberError> {
+    if bits >= INF_BITS {
+        Err(NumberError::OutOfRange)
+    } else {
+        Ok(f32::from_bits(bits))
+    }
+}
+
+/// Significant digits read exactly when the 19 kept do not settle the rounding. Every
+/// midpoint between floats, `k·2^e2` with `k < 2^26` and `e2 >= -151`, has its last
+/// significant digit at or above 10^-151, and its first within one place of the decimal's
+/// first when the two are near; so 120 digits from the decimal's first reach below every
+/// such midpoint's last, and a midpoint near the decimal is a multiple of the last kept
+/// digit's place (as [`exact::to_f32`] needs). 10^120 fits [`Big`].
+const EXACT_DIGITS: u32 = 120;
+
+/// The digits after 'e': optional sign and at least one digit, saturated at [`EXPONENT_CAP`].
+fn scan_exponent(text: &[u8]) -> Result<i32, NumberError> {
+    let (negative, digits) = split_sign(text).map_err(|_| NumberError::Invalid)?;
+    if digits.is_empty() {
+        return Err(NumberError::Invalid);
+    }
+    let mut value: i32 = 0;
+    for &c in digits {
+        let d = digit(c).ok_or(NumberError::Invalid)?;
+        value = value
+            .saturating_mul(10)
+            .saturating_add(i32::from(d))
+            .min(EXPONENT_CAP);
+    }
+    Ok(if negative { -value } else { value })
+}
+// ---------------------------------------------------------------------------------------------
+// Formatting floats
+// ---------------------------------------------------------------------------------------------
+
+/// Writes `value` in the shortest decimal form that parses back to exactly the same f32, never in exponent notation.
+///
+/// The text is byte-identical to `format!("{}", value)`: `"-0"` for negative zero, integers
+/// without `".0"`, trailing zeros instead of an exponent (`1e30` prints 31 digits). Returns the
+/// length of the text at the start of `out`; the bytes after it may be overwritten too (the
+/// text is stored eight bytes at a time). NaN and infinities are [`NumberError::NotFinite`].
+pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, NumberError> {
+    if !value.is_finite() {
+        return Err(NumberError::NotFinite);
+    }
+    Ok(write_finite(value, out))
+}
+
+/// [`write_f32`] for a value the caller has checked is finite: NaN and infinities must not
+/// come here. The document writer checks first, because its items loop keeps the text's
+/// length in a register then, where a `Result` would come back through memory.
+///
+/// In the default build, the usual float's digits are chosen by [`fast::Window`] and
+/// written here without a call, which would make the compiler save and restore more
+/// registers. Zero and any other float go to [`write_exact`], so the code that writes the
+/// digits is here twice (about 500 bytes of flash for 5 % of the 1002 answer's encode).
+#[inline(never)]
+pub(crate) fn write_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
+    #[cfg(not(feature = "compact"))]
+    if let Some(window) = fast::Window::new(value.to_bits() & !(1 << 31)) {
+        let (digits, exponent, len) = window.pick();
+        return render(value.is_sign_negative(), digits, exponent, len, out);
+    }
+    write_exact(value, out)
+}
+
+/// [`write_finite`] for zero and for a float the fast path does not take (every float in a
+/// `compact` build).
+#[cfg_attr(not(feature = "compact"), cold)]
+#[inline(never)]
+fn write_exact(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
+    let (digits, exponent, len) = match value.to_bits() & !(1 << 31) {
+        0 => (0, 0, 1),
+        bits => exact::shortest(bits),
+    };
+    render(value.is_sign_negative(), digits, exponent, len, out)
+}
+
+/// Writes a NaN or an infinity as C's `printf` does (`nan`, `-nan`, `inf`, `-inf`), for
+/// answers that report a reading the robot does not have; returns the length. A finite
+/// `value` writes nothing (0).
+// Out of line: one copy for both places a number item is written, off their usual path.
+#[inline(never)]
+pub fn write_non_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
+    let word: &[u8] = match (
+        value.is_nan(),
+        value.is_infinite(),
+        value.is_sign_negative(),
+    ) {
+        (true, _, false) => b"nan",
+        (true, _, true) => b"-nan",
+        (_, true, false) => b"inf",
+        (_, true, true) => b"-inf",
+        _ => b"",
+    };
+    for (slot, &c) in out.iter_mut().zip(word) {
+        *slot = c;
+    }
+    word.len()
+}
+
+/// Eight ASCII zeros in a word.
+const ZERO_DIGITS: u64 = u64::from_le_bytes([b'0'; 8]);
+
+/// The ASCII digits of four numbers below 100, one in each 16-bit lane of `x`: the tens in
+/// the lane's low byte, the ones in its high byte. Dividing by ten is a multiplication, exact
+/// in every lane below 179.
+pub(crate) fn two_digit_lanes(x: u64) -> u64 {
+    let tens = ((x * 103) >> 10) & 0x000f_000f_000f_000f;
+    tens | (x - tens * 10) << 8 | ZERO_DIGITS
+}
