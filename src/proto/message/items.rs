@@ -312,8 +312,10 @@ pub trait ItemSet: Sized {
 }
 
 /// An answer's items, which the default build writes each by code of its own
-/// ([`Writing::Straight`]). A request's are written through their table in every build: the
-/// panel writes them, and there the flash counts more than the time.
+/// ([`Writing::Straight`]); a `compact` build has no such code. A request's are written
+/// through their table in every build: the panel writes them, and there the flash counts
+/// more than the time.
+#[cfg(not(feature = "compact"))]
 pub trait AnswerItems: ItemSet {
     /// Writes the present items, each by code of its own in which its kind and tags are
     /// constants: no table is read and nothing is converted to wire values first.
@@ -382,7 +384,8 @@ impl NameFilter {
 pub(crate) enum Writing {
     /// Each item by code of its own ([`AnswerItems::write_items`]), its kind and tags
     /// constants there: the fastest, about 150 bytes of flash an item on the
-    /// microcontroller.
+    /// microcontroller. Not in a `compact` build.
+    #[cfg(not(feature = "compact"))]
     Straight,
     /// Every item through its table and one loop ([`write_values`]) that serves every
     /// message: the smallest.
@@ -390,12 +393,12 @@ pub(crate) enum Writing {
 }
 
 impl Writing {
-    /// This build's way: through the tables in a `compact` build, else straight.
-    pub(crate) const BUILD: Self = if cfg!(feature = "compact") {
-        Self::Table
-    } else {
-        Self::Straight
-    };
+    /// This build's way: straight, or through the tables in a `compact` build.
+    #[cfg(not(feature = "compact"))]
+    pub(crate) const BUILD: Self = Self::Straight;
+    /// This build's way: straight, or through the tables in a `compact` build.
+    #[cfg(feature = "compact")]
+    pub(crate) const BUILD: Self = Self::Table;
 }
 
 /// Writes the `present` values as items.
@@ -655,6 +658,7 @@ macro_rules! item_set {
             }
         }
 
+        #[cfg(not(feature = "compact"))]
         impl $crate::proto::message::items::AnswerItems for $name {
             #[inline]
             fn write_items(

@@ -24,9 +24,10 @@ use crate::proto::xml::number::NumberError;
 use crate::proto::xml::reader::{Tokenizer, XmlError};
 use crate::proto::xml::writer::{DocumentWriter, ItemName, WriteError};
 use crate::proto::xml::{Envelope, Items, StructureError, read_tokens};
+#[cfg(not(feature = "compact"))]
+use items::AnswerItems;
 use items::{
-    AnswerItems, ItemSet, Kind, MAX_ITEMS, Sender, Table, Writing, item_set, read_values, table,
-    write_values,
+    ItemSet, Kind, MAX_ITEMS, Sender, Table, Writing, item_set, read_values, table, write_values,
 };
 
 /// Longest body a valid request encodes to: a 1003 request with [`MAX_NAV_POINTS`]
@@ -521,6 +522,7 @@ impl Response {
             };
         }
         match writing {
+            #[cfg(not(feature = "compact"))]
             Writing::Straight => with_items!(set => set.write_items(&mut doc))?,
             Writing::Table => {
                 // The block is written by one call for every Type, from its table and values.

@@ -1,0 +1,293 @@
+//! A fixed-buffer XML writer that produces the layout of the protocol document.
+//!
+//! ```xml
+//! <?xml version="1.0" encoding="UTF-8"?>
+//! <PatrolDevice>
+//!   <Type>2</Type>
+//!   <Command>1</Command>
+//!   <Time>2023-01-01 00:00:00</Time>
+//!   <Items>
+//!     <Value>-1</Value>
+//!   </Items>
+//! </PatrolDevice>
+//! ```
+//!
+//! Every write either fits or fails with [`WriteError::BufferFull`]; nothing is ever
+//! truncated silently.
+
+#[cfg(not(feature = "compact"))]
+mod fast;
+
+use super::number::{self, F32_TEXT_MAX, I32_TEXT_MAX};
+use crate::proto::time::{TIME_TEXT_LEN, Timestamp};
+#[cfg(not(feature = "compact"))]
+pub(crate) use fast::ItemTags;
+
+/// Why a document could not be written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum WriteError {
+    /// The caller's buffer is too small for the document.
+    BufferFull,
+    /// A float item is NaN or infinite, which has no text form.
+    NotFinite {
+        /// The item's element name.
+        item: ItemName,
+    },
+}
+
+/// Longest item name, bytes: 18 (`BatteryTemperature`) and room to spare. Checked where
+/// each name is made, so that an item line with its tags and the longest number always
+/// fits the line's window.
+pub(crate) const NAME_MAX: usize = 19;
+
+/// An item's element name: ASCII, at most [`NAME_MAX`] bytes.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub struct ItemName(&'static [u8]);
+
+impl ItemName {
+    /// The name `name`. Meant for constants, as every item name is: there a name that is
+    /// too long or not ASCII fails to compile (at run time it would panic).
+    pub const fn new(name: &'static str) -> Self {
+        let name = name.as_bytes();
+        assert!(
+            name.len() <= NAME_MAX && name.is_ascii(),
+            "an item name is at most 19 ASCII bytes"
+        );
+        Self(name)
+    }
+
+    /// The name whose bytes are `name`, an item table's, which the table checked as
+    /// [`ItemName::new`] checks its name.
+    pub(crate) const fn from_table(name: &'static [u8]) -> Self {
+        Self(name)
+    }
+
+    /// The name's bytes.
+    pub const fn as_bytes(&self) -> &'static [u8] {
+        self.0
+    }
+}
+
+/// The name as text: its bytes are ASCII, so each is a character (no UTF-8 check, whose code
+/// the codec would otherwise link only for this).
+impl core::fmt::Display for ItemName {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        self.as_bytes()
+            .iter()
+            .try_for_each(|&c| core::fmt::Write::write_char(f, char::from(c)))
+    }
+}
+
+/// The name quoted, as a string's `Debug` shows it.
+impl core::fmt::Debug for ItemName {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "\"{self}\"")
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for ItemName {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "{=[u8]:a}", self.as_bytes());
+    }
+}
+
+/// The value of a number item.
+#[derive(Clone, Copy)]
+pub(crate) enum Number {
+    /// An integer.
+    Int(i32),
+    /// A float of a request, written in its shortest exact form; NaN and infinities are
+    /// refused, since the robot would act on them.
+    Float(f32),
+    /// A float of an answer: as [`Number::Float`], but NaN and infinities are written as C's
+    /// `printf` writes them (`nan`, `-nan`, `inf`, `-inf`), for a reading the robot does
+    /// not have (an unknown pose). Only answers make these, so a program that writes no
+    /// answer (the panel) does not link that writer.
+    Reading(f32),
+}
+
+impl Number {
+    /// Writes the number's text at the start of `out` and returns its length; the bytes
+    /// after it may be overwritten. A float that cannot be written is refused naming `item`.
+    #[inline(always)]
+    fn format(self, item: ItemName, out: &mut [u8; NUMBER_MAX]) -> Result<usize, WriteError> {
+        match self {
+            Self::Int(value) => Ok(out
+                .first_chunk_mut::<I32_TEXT_MAX>()
+                .map_or(0, |out| number::write_i32(value, out))),
+            Self::Float(value) | Self::Reading(value) if value.is_finite() => {
+                Ok(number::write_finite(value, out))
+            }
+            Self::Reading(value) => Ok(number::write_non_finite(value, out)),
+            Self::Float(_) => Err(WriteError::NotFinite { item }),
+        }
+    }
+}
+
+/// Longest number text written in a window.
+const NUMBER_MAX: usize = F32_TEXT_MAX;
+
+/// The first `n` bytes of a formatted number.
+fn prefix(text: &[u8], n: usize) -> &[u8] {
+    text.get(..n).unwrap_or_default()
+}
+
+/// An item line's start: its indentation and the opening tag's `<`.
+const ITEM_OPEN: &[u8; 5] = b"    <";
+
+/// The header's text around its three values (`Type`, `Command`, `Time`).
+const HEADER: [&[u8]; 4] = [
+    b"<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<PatrolDevice>\n  <Type>",
+    b"</Type>\n  <Command>",
+    b"</Command>\n  <Time>",
+    b"</Time>\n",
+];
+
+/// Writes one `<PatrolDevice>` document: header elements, then items, in the document's layout.
+///
+/// Items open an `<Items>` block on first use; a document with no items gets `<Items/>`.
+#[derive(Debug)]
+pub struct DocumentWriter<'a> {
+    buf: &'a mut [u8],
+    /// Bytes written so far.
+    len: usize,
+    items_open: bool,
+    blocks: usize,
+}
+
+impl<'a> DocumentWriter<'a> {
+    /// Writes the declaration and the `Type`, `Command` and `Time` elements into `buf`.
+    pub fn begin(
+        buf: &'a mut [u8],
+        message_type: i32,
+        command: i32,
+        time: &Timestamp,
+    ) -> Result<Self, WriteError> {
+        let [type_text, command_text] = [message_type, command].map(|value| {
+            let mut text = [0; I32_TEXT_MAX];
+            let len = number::write_i32(value, &mut text);
+            (text, len)
+        });
+        let mut time_text = [0; TIME_TEXT_LEN];
+        time.encode(&mut time_text);
+        let mut doc = Self {
+            buf,
+            len: 0,
+            items_open: false,
+            blocks: 0,
+        };
+        let [declaration, after_type, after_command, after_time] = HEADER;
+        let pieces = [
+            declaration,
+            prefix(&type_text.0, type_text.1),
+            after_type,
+            prefix(&command_text.0, command_text.1),
+            after_command,
+            &time_text,
+            after_time,
+        ];
+        // The default build writes the header in one piece where it fits (`fast`); the
+        // result is the same.
+        #[cfg(not(feature = "compact"))]
+        if doc.header(&type_text, &command_text, &time_text) {
+            return Ok(doc);
+        }
+        for piece in pieces {
+            doc.raw(piece)?;
+        }
+        Ok(doc)
+    }
+
+    /// Writes an integer item.
+    pub fn int_item(&mut self, name: ItemName, value: i32) -> Result<(), WriteError> {
+        self.number_item(name, Number::Int(value))
+    }
+
+    /// Writes a float item.
+    pub fn float_item(&mut self, name: ItemName, value: f32) -> Result<(), WriteError> {
+        self.number_item(name, Number::Float(value))
+    }
+
+    /// Writes one item line whose value is a number: the number is formatted aside, then the
+    /// line is appended piece by piece. The default build writes the line in place where
+    /// the buffer has room for the longest one (`fast`), with the same result. Always
+    /// inlined: the codec writes every item from one loop (over a message's item table),
+    /// where a call per item (saving and restoring the registers the formatting needs)
+    /// would cost the default build a fifth of the line.
+    #[inline(always)]
+    pub(crate) fn number_item(&mut self, name: ItemName, value: Number) -> Result<(), WriteError> {
+        self.open_items()?;
+        #[cfg(not(feature = "compact"))]
+        if self.window_line(name, name, value)? {
+            return Ok(());
+        }
+        self.formatted_line(name, value)
+    }
+
+    /// [`DocumentWriter::number_item`]'s line, the number formatted aside.
+    #[inline(always)]
+    fn formatted_line(&mut self, name: ItemName, value: Number) -> Result<(), WriteError> {
+        let mut text = [0; NUMBER_MAX];
+        let n = value.format(name, &mut text)?;
+        self.text_line(name, prefix(&text, n))
+    }
+
+    /// [`DocumentWriter::number_item`]'s line with the number's `text`, appended piece by
+    /// piece.
+    // Out of line: one copy serves every item line, whichever code writes it. The number
+    // is formatted by the caller, where what kind of number it is may be known.
+    #[inline(never)]
+    fn text_line(&mut self, name: ItemName, text: &[u8]) -> Result<(), WriteError> {
+        let name = name.as_bytes();
+        for piece in [ITEM_OPEN.as_slice(), name, b">", text, b"</", name, b">\n"] {
+            self.raw(piece)?;
+        }
+        Ok(())
+    }
+
+    /// Appends `bytes`.
+    // Out of line: every piece of markup goes through it.
+    #[inline(never)]
+    fn raw(&mut self, bytes: &[u8]) -> Result<(), WriteError> {
+        let end = self.len + bytes.len();
+        self.buf
+            .get_mut(self.len..end)
+            .ok_or(WriteError::BufferFull)?
+            .copy_from_slice(bytes);
+        self.len = end;
+        Ok(())
+    }
+
+    /// Opens the `<Items>` block if no block is open.
+    fn open_items(&mut self) -> Result<(), WriteError> {
+        if !self.items_open {
+            self.raw(b"  <Items>\n")?;
+            self.items_open = true;
+        }
+        Ok(())
+    }
+
+    /// Closes the current `<Items>` block, so the next item starts another one (a 1003
+    /// request carries one block per waypoint).
+    pub fn end_items_block(&mut self) -> Result<(), WriteError> {
+        if self.items_open {
+            self.raw(b"  </Items>\n")?;
+            self.items_open = false;
+            self.blocks += 1;
+        }
+        Ok(())
+    }
+
+    /// Closes the document and returns its length in bytes.
+    pub fn finish(mut self) -> Result<usize, WriteError> {
+        self.end_items_block()?;
+        if self.blocks == 0 {
+            self.raw(b"  <Items/>\n")?;
+        }
+        self.raw(b"</PatrolDevice>\n")?;
+        Ok(self.len)
+    }
+}
