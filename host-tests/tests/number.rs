@@ -616,6 +616,16 @@ fn integer_edges() {
         parse_i64(b"99999999999999999999999x"),
         Err(NumberError::Invalid)
     );
+    // Twenty digits whose value is 2^64, which a 64-bit accumulator would read as zero; and
+    // leading zeros, which count for nothing.
+    assert_eq!(
+        parse_i64(b"18446744073709551616"),
+        Err(NumberError::OutOfRange)
+    );
+    assert_eq!(
+        parse_i64(b"-00000000000000000000009223372036854775808"),
+        Ok(i64::MIN)
+    );
     assert_eq!(parse_i64(b""), Err(NumberError::Empty));
     for bad in [
         "-", "+", "5.0", "1e3", " 5", "5 ", "--5", "+-5", "0x1", "five",

@@ -106,22 +106,22 @@ fn scan_i64(text: &[u8]) -> (Result<i64, NumberError>, usize) {
     if digits == 0 {
         return (Err(NumberError::Invalid), used);
     }
-    // Accumulate towards the negative side: i64::MIN has no positive counterpart.
-    let mut value: i64 = 0;
-    let mut overflow = false;
+    // Any 19 digits fit a u64, and more than 19 (past leading zeros) never fit an i64; the
+    // magnitude may wrap only then.
+    let mut magnitude = 0u64;
+    let mut significant = 0;
     for &c in body.get(..digits).unwrap_or_default() {
-        match value
-            .checked_mul(10)
-            .and_then(|v| v.checked_sub(i64::from(c - b'0')))
-        {
-            Some(v) => value = v,
-            None => overflow = true,
-        }
+        magnitude = magnitude.wrapping_mul(10).wrapping_add(u64::from(c - b'0'));
+        significant += usize::from(significant > 0 || c != b'0');
     }
-    let value = match (overflow, negative) {
-        (true, _) => Err(NumberError::OutOfRange),
-        (false, true) => Ok(value),
-        (false, false) => value.checked_neg().ok_or(NumberError::OutOfRange),
+    // i64::MIN's magnitude is one more than i64::MAX's.
+    let limit = i64::MAX as u64 + u64::from(negative);
+    let value = if significant > 19 || magnitude > limit {
+        Err(NumberError::OutOfRange)
+    } else if negative {
+        Ok(0i64.wrapping_sub_unsigned(magnitude))
+    } else {
+        Ok(magnitude as i64)
     };
     (value, used)
 }
