@@ -8,7 +8,7 @@ use x30_panel::proto::xml::{Items, StructureError, read_document, read_document_
 pub fn reader_trace(body: &[u8], shortcuts: bool) -> String {
     let text = |bytes: &[u8]| String::from_utf8_lossy(bytes).into_owned();
     let mut trace = String::new();
-    let mut on_items = |envelope: &_, items: &mut Items<'_>| {
+    let mut on_items = |envelope: &_, items: &mut Items<'_, '_>| {
         trace.push_str(&format!("block {envelope:?}:"));
         for item in items {
             let item = item.map_err(StructureError::Xml)?;

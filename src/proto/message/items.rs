@@ -305,7 +305,7 @@ pub trait ItemSet: Sized {
 
     /// Reads the items of one request block; unknown items are skipped, a missing required
     /// one is an error naming it.
-    fn read_items(items: &mut Items<'_>) -> Result<Self, DecodeError> {
+    fn read_items(items: &mut Items<'_, '_>) -> Result<Self, DecodeError> {
         let block = read_values(items, Self::TABLE, Sender::Client)?;
         Ok(Self::from_values(&block.values, block.present))
     }
@@ -447,7 +447,7 @@ pub(crate) struct Block {
 /// may write them. One copy serves every table, so the values have room for the largest.
 #[inline(never)]
 pub(crate) fn read_values(
-    items: &mut Items<'_>,
+    items: &mut Items<'_, '_>,
     table: &Table,
     sender: Sender,
 ) -> Result<Block, DecodeError> {

@@ -574,7 +574,7 @@ impl Response {
     #[inline(never)]
     fn read_items(
         envelope: &Envelope,
-        items: &mut Items<'_>,
+        items: &mut Items<'_, '_>,
     ) -> Result<(Self, Unreadable), DecodeError> {
         let message_type = MessageType::from_raw(envelope.message_type);
         let table = match message_type {
@@ -619,7 +619,7 @@ impl Response {
     }
 }
 
-fn read_motion(command: i32, items: &mut Items<'_>) -> Result<MotionCommand, DecodeError> {
+fn read_motion(command: i32, items: &mut Items<'_, '_>) -> Result<MotionCommand, DecodeError> {
     let code = MotionCommandCode::from_raw(command);
     let table = match code {
         MotionCommandCode::SwitchGait => MOTION_VALUE_INT,

@@ -72,7 +72,7 @@ pub struct Envelope {
 /// blocks.
 pub fn read_document<'a, E>(
     input: &'a [u8],
-    on_items: impl FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
+    on_items: impl FnMut(&Envelope, &mut Items<'_, 'a>) -> Result<(), E>,
 ) -> Result<(Envelope, usize), E>
 where
     E: From<StructureError>,
@@ -86,7 +86,7 @@ where
 /// tested against.
 pub fn read_document_general<'a, E>(
     input: &'a [u8],
-    on_items: impl FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
+    on_items: impl FnMut(&Envelope, &mut Items<'_, 'a>) -> Result<(), E>,
 ) -> Result<(Envelope, usize), E>
 where
     E: From<StructureError>,
@@ -101,7 +101,7 @@ where
 /// the document reader serves requests and responses alike.
 pub(crate) fn read_tokens<'a, E>(
     tokens: Tokenizer<'a>,
-    on_items: &mut dyn FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
+    on_items: &mut dyn FnMut(&Envelope, &mut Items<'_, 'a>) -> Result<(), E>,
 ) -> Result<(Envelope, usize), E>
 where
     E: From<StructureError>,
@@ -122,7 +122,7 @@ where
 /// block was passed over (only checked), for want of an envelope.
 fn read_pass<'a, E>(
     mut tokens: Tokenizer<'a>,
-    on_items: &mut dyn FnMut(&Envelope, &mut Items<'a>) -> Result<(), E>,
+    on_items: &mut dyn FnMut(&Envelope, &mut Items<'_, 'a>) -> Result<(), E>,
     known: Option<Envelope>,
 ) -> Result<(Envelope, usize, bool), E>
 where
@@ -194,11 +194,10 @@ where
             _ => None,
         };
         match envelope {
-            Some(envelope) if empty => on_items(&envelope, &mut Items::empty(&tokens))?,
             Some(envelope) => {
-                let mut items = Items::inside(tokens.clone());
+                let mut items = Items::new(&mut tokens, empty);
                 on_items(&envelope, &mut items)?;
-                tokens = items.finish().map_err(xml)?;
+                items.finish().map_err(xml)?;
             }
             None if empty => passed_over = true,
             None => {
@@ -351,42 +350,34 @@ pub struct Item<'a> {
     pub text: Option<&'a [u8]>,
 }
 
-/// The items of one `<Items>` block, in document order; unknown ones are the caller's to
-/// skip.
-#[derive(Debug, Clone)]
-pub struct Items<'a> {
-    tokens: Tokenizer<'a>,
+/// The items of one `<Items>` block, in document order, read from the document's tokenizer
+/// (borrowed for `'t`); unknown ones are the caller's to skip.
+#[derive(Debug)]
+pub struct Items<'t, 'a> {
+    tokens: &'t mut Tokenizer<'a>,
     /// Depth of the `<Items>` element: its end tag brings the tokenizer below this.
     depth: usize,
     done: bool,
 }
 
-impl<'a> Items<'a> {
-    /// Items read from the document's own tokenizer, just after `<Items>`.
-    fn inside(tokens: Tokenizer<'a>) -> Self {
+impl<'t, 'a> Items<'t, 'a> {
+    /// Items read from the document's tokenizer, just after `<Items>`, or none (`done`) for
+    /// an empty block (`<Items/>`).
+    fn new(tokens: &'t mut Tokenizer<'a>, done: bool) -> Self {
         Self {
             depth: tokens.depth(),
             tokens,
-            done: false,
+            done,
         }
     }
 
-    /// The items of an empty block (`<Items/>`): none.
-    fn empty(tokens: &Tokenizer<'a>) -> Self {
-        Self {
-            tokens: tokens.clone(),
-            depth: tokens.depth(),
-            done: true,
-        }
-    }
-
-    /// Reads whatever the consumer left, so the whole block is checked, and hands the
-    /// tokenizer back positioned after `</Items>`.
-    fn finish(mut self) -> Result<Tokenizer<'a>, XmlError> {
+    /// Reads whatever the consumer left, so the whole block is checked and the tokenizer is
+    /// left after `</Items>`.
+    fn finish(mut self) -> Result<(), XmlError> {
         for item in &mut self {
             item?;
         }
-        Ok(self.tokens)
+        Ok(())
     }
 
     /// The next item's value if it is `name`, written plainly, with a number as text that
@@ -423,7 +414,7 @@ impl<'a> Items<'a> {
     }
 }
 
-impl<'a> Iterator for Items<'a> {
+impl<'a> Iterator for Items<'_, 'a> {
     type Item = Result<Item<'a>, XmlError>;
 
     fn next(&mut self) -> Option<Self::Item> {
@@ -448,7 +439,7 @@ impl<'a> Iterator for Items<'a> {
             };
             return Some(match token {
                 Token::Start(name) => {
-                    element_text(&mut self.tokens).map(|text| Item { name, text })
+                    element_text(self.tokens).map(|text| Item { name, text })
                 }
                 Token::Empty(name) => Ok(Item {
                     name,
