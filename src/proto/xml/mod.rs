@@ -438,9 +438,7 @@ impl<'a> Iterator for Items<'_, 'a> {
                 }
             };
             return Some(match token {
-                Token::Start(name) => {
-                    element_text(self.tokens).map(|text| Item { name, text })
-                }
+                Token::Start(name) => element_text(self.tokens).map(|text| Item { name, text }),
                 Token::Empty(name) => Ok(Item {
                     name,
                     text: Some(&[]),

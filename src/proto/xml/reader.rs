@@ -347,6 +347,9 @@ impl<'a> Tokenizer<'a> {
         }
     }
 
+    /// What follows the current position. Out of line in a `compact` build, where its
+    /// callers are many and none is hot; the default build's shortcuts want it inlined.
+    #[cfg_attr(feature = "compact", inline(never))]
     fn rest(&self) -> &'a [u8] {
         self.input.get(self.pos..).unwrap_or_default()
     }
@@ -660,6 +663,8 @@ fn is_tag(bytes: &[u8], name: &[u8]) -> bool {
 }
 
 /// Length of the XML name at the start of `bytes`.
+// Out of line: the general path's three callers share one copy of the scan.
+#[inline(never)]
 fn name_len(bytes: &[u8]) -> usize {
     run(bytes, NAME_BYTE)
 }

@@ -131,7 +131,9 @@ pub fn parse_int<T: TryFrom<i64>>(text: &[u8]) -> Result<T, NumberError> {
     T::try_from(parse_i64(text)?).map_err(|_| NumberError::OutOfRange)
 }
 
-/// Splits off one leading '+' or '-'; `Empty` for empty text.
+/// Splits off one leading '+' or '-'; `Empty` for empty text. Out of line in a `compact`
+/// build, whose three readers of numbers share it.
+#[cfg_attr(feature = "compact", inline(never))]
 fn split_sign(text: &[u8]) -> Result<(bool, &[u8]), NumberError> {
     match text.split_first() {
         None => Err(NumberError::Empty),
