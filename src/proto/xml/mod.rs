@@ -170,11 +170,13 @@ where
             Token::Start(b"Items") => false,
             Token::Empty(b"Items") => true,
             Token::Start(tag) => {
-                match HeaderElement::named(tag) {
-                    Some(element) => {
-                        header.set(element, header_text(&mut tokens, element.name())?)?
-                    }
-                    None => skip_element(&mut tokens).map_err(xml)?,
+                // Any other element is read whole too, which checks it, and passed over.
+                let text = element_text(&mut tokens).map_err(xml)?;
+                if let Some(element) = HeaderElement::named(tag) {
+                    header.set(
+                        element,
+                        text.ok_or(StructureError::NotText(element.name()))?,
+                    )?;
                 }
                 continue;
             }
@@ -199,10 +201,11 @@ where
                 on_items(&envelope, &mut items)?;
                 items.finish().map_err(xml)?;
             }
-            None if empty => passed_over = true,
             None => {
                 passed_over = true;
-                skip_element(&mut tokens).map_err(xml)?;
+                if !empty {
+                    element_text(&mut tokens).map_err(xml)?;
+                }
             }
         }
     }
@@ -216,25 +219,6 @@ where
         time: header.time,
     };
     Ok((envelope, blocks, passed_over))
-}
-
-/// Consumes the rest of an element whose start tag was just read.
-fn skip_element(tokens: &mut Tokenizer<'_>) -> Result<(), XmlError> {
-    let depth = tokens.depth();
-    loop {
-        match tokens.next_token()? {
-            Some(Token::End(_)) if tokens.depth() < depth => return Ok(()),
-            Some(_) => {}
-            None => return Ok(()),
-        }
-    }
-}
-
-fn header_text<'a>(
-    tokens: &mut Tokenizer<'a>,
-    name: &'static str,
-) -> Result<&'a [u8], StructureError> {
-    element_text(tokens)?.ok_or(StructureError::NotText(name))
 }
 
 /// The header elements read so far.

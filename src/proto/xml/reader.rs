@@ -691,6 +691,7 @@ fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
 /// Consumes everything up to and including the element's end tag.
 pub fn element_text<'a>(tokens: &mut Tokenizer<'a>) -> Result<Option<&'a [u8]>, XmlError> {
     let depth = tokens.depth();
+    // The one piece of text that is not whitespace; `None` once anything else is there.
     let mut text: Option<&'a [u8]> = Some(&[]);
     let mut seen_text = false;
     loop {
@@ -699,11 +700,7 @@ pub fn element_text<'a>(tokens: &mut Tokenizer<'a>) -> Result<Option<&'a [u8]>, 
                 return Ok(text.map(<[u8]>::trim_ascii));
             }
             // Whitespace around a comment inside a value is layout, not part of the value.
-            Some(Token::Text(t)) if t.iter().all(u8::is_ascii_whitespace) => {
-                if !seen_text && text.is_some_and(<[u8]>::is_empty) {
-                    text = Some(t);
-                }
-            }
+            Some(Token::Text(t)) if t.iter().all(u8::is_ascii_whitespace) => {}
             Some(Token::Text(t)) if !seen_text => {
                 seen_text = true;
                 text = text.map(|_| t);
