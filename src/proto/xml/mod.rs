@@ -166,10 +166,13 @@ where
                 None => break,
             }
         };
-        let empty = match token {
-            Token::Start(b"Items") => false,
-            Token::Empty(b"Items") => true,
-            Token::Start(tag) => {
+        let (tag, empty) = match token {
+            Token::Start(tag) => (tag, false),
+            Token::Empty(tag) => (tag, true),
+            Token::End(_) | Token::Text(_) => continue,
+        };
+        if tag != b"Items" {
+            if !empty {
                 // Any other element is read whole too, which checks it, and passed over.
                 let text = element_text(&mut tokens).map_err(xml)?;
                 if let Some(element) = HeaderElement::named(tag) {
@@ -178,10 +181,9 @@ where
                         text.ok_or(StructureError::NotText(element.name()))?,
                     )?;
                 }
-                continue;
             }
-            Token::End(_) | Token::Empty(_) | Token::Text(_) => continue,
-        };
+            continue;
+        }
         blocks += 1;
         if blocks > MAX_ITEMS_BLOCKS {
             return Err(StructureError::TooManyItemsBlocks.into());
