@@ -17,6 +17,9 @@ const LIMBS: usize = 13;
 pub(super) struct Big([u32; LIMBS]);
 
 impl Big {
+    /// Zero.
+    pub(super) const ZERO: Self = Big([0; LIMBS]);
+
     /// The value `v`.
     #[inline(never)]
     pub(super) fn from_u64(v: u64) -> Self {

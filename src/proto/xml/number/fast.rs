@@ -27,7 +27,8 @@
 //! zeros included, is written with 8-byte stores.
 
 use super::{
-    Binary, Decimal, F32_TEXT_MAX, I32_TEXT_MAX, ZERO_DIGITS, float_bits, two_digit_lanes,
+    Binary, Decimal, Digits, F32_TEXT_MAX, I32_TEXT_MAX, NumberError, ZERO_DIGITS, finite,
+    float_bits, split_sign, two_digit_lanes,
 };
 
 /// `floor(k·log2(5))` for `-64 <= k < 64` (in 12.20 fixed point; checked for each such `k`).
@@ -133,11 +134,63 @@ impl Approx {
 /// the significand below 2^64 that is under 24 units, and 2^7 leaves a safety factor of five.
 const MIDPOINT_MARGIN_BITS: u32 = 7;
 
-impl Decimal {
+/// [`super::parse_f32`], if the text's first 19 significant digits settle it: syntax
+/// errors, zero, values out of range, and (with [`Decimal::approximate`]) almost every
+/// other decimal. `None` for the rest, which must be read exactly.
+pub(super) fn parse_f32(text: &[u8]) -> Option<Result<f32, NumberError>> {
+    let decimal = match split_sign(text) {
+        Ok((negative, body)) => Decimal::scan_short(negative, body).map(Ok),
+        Err(_) => None,
+    };
+    let decimal = match decimal.unwrap_or_else(|| Decimal::<u64>::scan(text)) {
+        Ok(decimal) => decimal,
+        Err(error) => return Some(Err(error)),
+    };
+    let magnitude = if decimal.mantissa == 0 {
+        0.0
+    } else if decimal.exponent > 38 {
+        // The value lies in [10^exponent, 10^(19+exponent)]: at least 10^39 > f32::MAX.
+        return Some(Err(NumberError::OutOfRange));
+    } else if decimal.exponent < -64 {
+        // At most 10^-46, less than half the smallest subnormal 2^-149.
+        0.0
+    } else {
+        // Now -64 <= exponent <= 38, the range of the powers of ten.
+        match finite(decimal.approximate()?) {
+            Ok(magnitude) => magnitude,
+            Err(error) => return Some(Err(error)),
+        }
+    };
+    Some(Ok(if decimal.negative {
+        -magnitude
+    } else {
+        magnitude
+    }))
+}
+
+/// A mantissa at or above this takes no more digits: 19 significant digits are kept, and any
+/// 19 fit a `u64`.
+const MANTISSA_FULL: u64 = 1_000_000_000_000_000_000;
+
+/// Up to 19 significant digits, in a word.
+impl Digits for u64 {
+    const NONE: Self = 0;
+
+    fn push(&mut self, digit: u8) -> bool {
+        // Leading zeros are taken too, and leave the mantissa zero.
+        let room = *self < MANTISSA_FULL;
+        if room {
+            *self = *self * 10 + u64::from(digit);
+        }
+        room
+    }
+}
+
+impl Decimal<u64> {
     /// The bits of the float nearest to the decimal (`mantissa·10^exponent`, with
     /// `-64 <= exponent <= 38`), if its approximation settles it; `None` if the decimal
     /// lies too near a midpoint between two floats for the approximation's error.
-    pub(super) fn approximate(&self) -> Option<u32> {
+    fn approximate(&self) -> Option<u32> {
         let v = Approx::new(self.mantissa, 0).mul(Approx::pow10(self.exponent));
         // Keep 24 bits below the leading one, or fewer where subnormals have a fixed last bit.
         let lsb = (v.e + 63 - 23).max(-149);
@@ -163,7 +216,7 @@ impl Decimal {
     /// [`Decimal::scan`] for the usual text, digits with at most one '.' and no exponent,
     /// short enough (19 bytes) that no digit needs dropping: two tight loops, one each side
     /// of the point. `None` for anything else, which the general scan reads or refuses.
-    pub(super) fn scan_short(negative: bool, body: &[u8]) -> Option<Self> {
+    fn scan_short(negative: bool, body: &[u8]) -> Option<Self> {
         if body.len() > 19 {
             return None;
         }
@@ -195,7 +248,6 @@ impl Decimal {
             mantissa,
             exponent: -(fraction.len() as i32),
             sticky: false,
-            dropped_at: 0,
         })
     }
 }

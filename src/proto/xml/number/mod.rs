@@ -216,8 +216,15 @@ fn float_bits(lsb: i32, kept: u32, up: bool) -> u32 {
 /// after them is read again, with up to 120. Values that round above `f32::MAX`
 /// are [`NumberError::OutOfRange`]; values too small for the smallest subnormal become ±0.
 pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
-    let decimal = Decimal::scan(text)?;
-    let magnitude = decimal.magnitude(text)?;
+    // The default build reads the text with 19 digits in a word and settles almost every
+    // decimal by approximation; the rest, and every decimal in a `compact` build, is read
+    // exactly.
+    #[cfg(not(feature = "compact"))]
+    if let Some(value) = fast::parse_f32(text) {
+        return value;
+    }
+    let decimal = Decimal::<Exact>::scan(text)?;
+    let magnitude = decimal.magnitude()?;
     Ok(if decimal.negative {
         -magnitude
     } else {
@@ -262,39 +269,60 @@ const NAN: u64 = folded(b"nan");
 const INF: u64 = folded(b"inf");
 const INFINITY: u64 = folded(b"infinity");
 
-/// A mantissa at or above this takes no more digits: 19 significant digits are kept, and any
-/// 19 fit a `u64`.
-const MANTISSA_FULL: u64 = 1_000_000_000_000_000_000;
-
 /// Cap on an exponent's digits: far beyond any float, yet adding text-derived offsets to it
 /// cannot overflow (additions saturate in any case).
 const EXPONENT_CAP: i32 = 1 << 30;
 
-/// A decimal `mantissa·10^exponent`, plus `sticky` if non-zero digits were dropped.
-struct Decimal {
+/// A decimal `mantissa·10^exponent`, plus `sticky` if non-zero digits were dropped past the
+/// mantissa's last, with the mantissa's digits kept as `D` keeps them.
+struct Decimal<D> {
     negative: bool,
-    mantissa: u64,
+    mantissa: D,
     exponent: i32,
     sticky: bool,
-    /// Where in the text the first dropped digit is (0 if none is).
-    dropped_at: usize,
 }
 
-impl Decimal {
+/// The significant digits of a decimal as they are read.
+trait Digits {
+    /// No digit yet.
+    const NONE: Self;
+    /// Takes `digit` after the digits taken, or returns `false` if there is no room for it,
+    /// which drops it.
+    fn push(&mut self, digit: u8) -> bool;
+}
+
+/// The significant digits that settle any decimal's rounding: up to [`EXACT_DIGITS`] of them.
+struct Exact {
+    digits: Big,
+    /// How many significant digits `digits` holds (leading zeros are not).
+    count: u32,
+}
+
+impl Digits for Exact {
+    const NONE: Self = Exact {
+        digits: Big::ZERO,
+        count: 0,
+    };
+
+    fn push(&mut self, digit: u8) -> bool {
+        let room = self.count < EXACT_DIGITS;
+        if room {
+            self.digits.mul_add(10, u32::from(digit));
+            self.count += u32::from(self.count > 0 || digit != 0);
+        }
+        room
+    }
+}
+
+impl<D: Digits> Decimal<D> {
     /// Reads the syntax of a float: sign, digits and '.', optional exponent.
     fn scan(text: &[u8]) -> Result<Self, NumberError> {
         let (negative, body) = split_sign(text)?;
-        // The shortcut reads the usual text faster; a `compact` build leaves it out.
-        #[cfg(not(feature = "compact"))]
-        if let Some(decimal) = Self::scan_short(negative, body) {
-            return Ok(decimal);
-        }
         let mut decimal = Decimal {
             negative,
-            mantissa: 0,
+            mantissa: D::NONE,
             exponent: 0,
             sticky: false,
-            dropped_at: 0,
         };
         let mut written_exponent = 0;
         let mut any_digit = false;
@@ -313,17 +341,13 @@ impl Decimal {
                 _ => return Err(NumberError::Invalid),
             };
             any_digit = true;
-            // Leading zeros are taken too, and leave the mantissa zero.
-            if decimal.mantissa < MANTISSA_FULL {
-                decimal.mantissa = decimal.mantissa * 10 + u64::from(d);
+            // A digit taken after the point lowers the exponent; one dropped before it
+            // raises it.
+            if decimal.mantissa.push(d) {
                 if after_point {
                     decimal.exponent = decimal.exponent.saturating_sub(1);
                 }
             } else {
-                // No digit is dropped at the text's start: 0 means none yet.
-                if decimal.dropped_at == 0 {
-                    decimal.dropped_at = text.len() - body.len() + i;
-                }
                 decimal.sticky |= d != 0;
                 if !after_point {
                     decimal.exponent = decimal.exponent.saturating_add(1);
@@ -336,62 +360,32 @@ impl Decimal {
         decimal.exponent = decimal.exponent.saturating_add(written_exponent);
         Ok(decimal)
     }
-    /// The correctly rounded magnitude; `text` is what [`Decimal::scan`] read, for the rare
-    /// decimal whose dropped digits decide it.
-    fn magnitude(&self, text: &[u8]) -> Result<f32, NumberError> {
-        if self.mantissa == 0 {
+}
+
+impl Decimal<Exact> {
+    /// The correctly rounded magnitude.
+    fn magnitude(&self) -> Result<f32, NumberError> {
+        let Exact { digits, count } = &self.mantissa;
+        let (digits, count) = (*digits, *count);
+        if count == 0 {
             return Ok(0.0);
         }
-        // The value lies in [10^exponent, 10^(19+exponent)].
-        if self.exponent > 38 {
+        // The value lies in [10^(top-1), 10^top).
+        let top = self.exponent.saturating_add(count as i32);
+        if top > 39 {
             // At least 10^39 > f32::MAX.
             return Err(NumberError::OutOfRange);
         }
-        if self.exponent < -64 {
-            // At most 10^-46, less than half the smallest subnormal 2^-149.
+        if top < -45 {
+            // Below 10^-46, less than half the smallest subnormal 2^-149.
             return Ok(0.0);
         }
-        // Now -64 <= exponent <= 38: below 10^57, and with the digits `exact` appends (at
-        // most 101, each lowering the exponent) within `exact::to_f32`'s bounds.
-        // The default build's approximation settles almost every decimal; the rest, and
-        // every decimal in a `compact` build, is read exactly.
-        #[cfg(not(feature = "compact"))]
-        if let Some(bits) = self.approximate() {
-            return finite(bits);
-        }
-        let (digits, exponent, sticky) = self.exact(text);
-        finite(exact::to_f32(digits, exponent, sticky))
-    }
-
-    /// The decimal with enough digits for [`exact::to_f32`]: with digits dropped, a midpoint
-    /// may lie between the 19 kept and the whole text, and the text's later digits decide.
-    /// Each is appended in turn (the point is passed over), up to [`EXACT_DIGITS`]; `text`
-    /// is what [`Decimal::scan`] read.
-    fn exact(&self, text: &[u8]) -> (Big, i32, bool) {
-        let mut digits = Big::from_u64(self.mantissa);
-        let (mut exponent, mut sticky) = (self.exponent, false);
-        if !self.sticky {
-            return (digits, exponent, sticky);
-        }
-        // `exponent` is the 19 kept digits' (each dropped digit before the point raised
-        // it), so each digit appended lowers it.
-        let dropped = text.get(self.dropped_at..).unwrap_or_default();
-        let mut room = EXACT_DIGITS - 19;
-        for &c in dropped.iter().take_while(|&&c| c | 0x20 != b'e') {
-            let Some(d) = digit(c) else {
-                continue;
-            };
-            if room > 0 {
-                digits.mul_add(10, u32::from(d));
-                exponent = exponent.saturating_sub(1);
-                room -= 1;
-            } else {
-                sticky |= d != 0;
-            }
-        }
-        (digits, exponent, sticky)
+        // Now `count <= 120` digits, `exponent >= -45 - 120` and the value below 10^39: within
+        // `exact::to_f32`'s bounds.
+        finite(exact::to_f32(digits, self.exponent, self.sticky))
     }
 }
+
 /// The float of `bits`, which is [`INF_BITS`] or more when the decimal rounded above
 /// `f32::MAX`.
 fn finite(bits: u32) -> Result<f32, NumberError> {
