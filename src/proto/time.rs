@@ -89,10 +89,13 @@ impl Timestamp {
         let text: &[u8; TIME_TEXT_LEN] = text.try_into().map_err(|_| BadTimestamp)?;
         // Every byte has its fixed place: the separators, and seven pairs of digits (the
         // year is two), each checked and read there.
-        const SEPARATORS: [(usize, u8); 5] =
+        const SEPARATORS: [(u8, u8); 5] =
             [(4, b'-'), (7, b'-'), (10, b' '), (13, b':'), (16, b':')];
-        const PAIRS: [usize; 7] = [0, 2, 5, 8, 11, 14, 17];
-        if SEPARATORS.iter().any(|&(at, c)| text.get(at) != Some(&c)) {
+        const PAIRS: [u8; 7] = [0, 2, 5, 8, 11, 14, 17];
+        if SEPARATORS
+            .iter()
+            .any(|&(at, c)| text.get(usize::from(at)) != Some(&c))
+        {
             return Err(BadTimestamp);
         }
         let digit = |at: usize| {
@@ -102,6 +105,7 @@ impl Timestamp {
         };
         let mut pairs = [0u8; PAIRS.len()];
         for (pair, &at) in pairs.iter_mut().zip(&PAIRS) {
+            let at = usize::from(at);
             let (Some(tens), Some(ones)) = (digit(at), digit(at + 1)) else {
                 return Err(BadTimestamp);
             };
