@@ -5,7 +5,8 @@
 //! overwritten. A `compact` build appends every piece instead, with the same result.
 
 use super::{
-    DocumentWriter, HEADER, ITEM_OPEN, ItemName, NAME_MAX, NUMBER_MAX, Number, WriteError, prefix,
+    DocumentWriter, HEADER, ITEM_OPEN, ItemName, NAME_MAX, NUMBER_MAX, Number, WriteError, concat,
+    prefix,
 };
 use crate::proto::time::TIME_TEXT_LEN;
 use crate::proto::xml::number::I32_TEXT_MAX;
@@ -18,8 +19,8 @@ impl DocumentWriter<'_> {
     #[inline(always)]
     pub(super) fn header(
         &mut self,
-        (type_text, type_len): &([u8; I32_TEXT_MAX], usize),
-        (command_text, command_len): &([u8; I32_TEXT_MAX], usize),
+        (type_text, type_len): (&[u8; I32_TEXT_MAX], usize),
+        (command_text, command_len): (&[u8; I32_TEXT_MAX], usize),
         time: &[u8; TIME_TEXT_LEN],
     ) -> bool {
         let total =
@@ -30,9 +31,9 @@ impl DocumentWriter<'_> {
         let mut out = Cursor(out);
         let [declaration, after_type, after_command, after_time] = HEADER;
         out.put(declaration);
-        out.put_number(type_text, *type_len);
+        out.put_number(type_text, type_len);
         out.put(after_type);
-        out.put_number(command_text, *command_len);
+        out.put_number(command_text, command_len);
         out.put(after_command);
         out.put(time);
         out.put(after_time);
@@ -199,28 +200,6 @@ impl<const OPEN: usize, const CLOSE: usize> ItemTags<OPEN, CLOSE> {
             close: concat(&[b"</", name, b">\n"]),
         }
     }
-}
-
-/// `parts` one after the other, in an array of exactly their total length (checked when the
-/// constant is built).
-const fn concat<const N: usize>(parts: &[&[u8]]) -> [u8; N] {
-    let mut out = [0; N];
-    let mut at = 0;
-    let mut parts = parts;
-    while let [part, more_parts @ ..] = parts {
-        let mut bytes = *part;
-        while let [byte, more_bytes @ ..] = bytes {
-            assert!(at < N, "the parts are longer than the array");
-            if let Some((_, [slot, ..])) = out.split_at_mut_checked(at) {
-                *slot = *byte;
-            }
-            at += 1;
-            bytes = more_bytes;
-        }
-        parts = more_parts;
-    }
-    assert!(at == N, "the parts are shorter than the array");
-    out
 }
 
 impl<const OPEN: usize, const CLOSE: usize> Tags for &ItemTags<OPEN, CLOSE> {

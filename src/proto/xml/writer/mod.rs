@@ -146,6 +146,53 @@ const HEADER: [&[u8]; 4] = [
     b"</Time>\n",
 ];
 
+/// The header as one text with its values' places marked by their numbers, the bytes 0, 1
+/// and 2, which the document's text never holds ([`DocumentWriter::fill`]).
+const HEADER_TEMPLATE: [u8; HEADER_LEN] = {
+    let [declaration, after_type, after_command, after_time] = HEADER;
+    concat(&[
+        declaration,
+        &[0],
+        after_type,
+        &[1],
+        after_command,
+        &[2],
+        after_time,
+    ])
+};
+
+/// The length of [`HEADER_TEMPLATE`]: the header's text and three marks.
+const HEADER_LEN: usize = {
+    let [declaration, after_type, after_command, after_time] = HEADER;
+    declaration.len() + after_type.len() + after_command.len() + after_time.len() + 3
+};
+
+/// An item line with its name's places marked 0 and its number's 1.
+const LINE_TEMPLATE: [u8; ITEM_OPEN.len() + 8] =
+    concat(&[ITEM_OPEN, &[0], b">", &[1], b"</", &[0], b">\n"]);
+
+/// `parts` one after the other, in an array of exactly their total length (checked when the
+/// constant is built).
+const fn concat<const N: usize>(parts: &[&[u8]]) -> [u8; N] {
+    let mut out = [0; N];
+    let mut at = 0;
+    let mut parts = parts;
+    while let [part, more_parts @ ..] = parts {
+        let mut bytes = *part;
+        while let [byte, more_bytes @ ..] = bytes {
+            assert!(at < N, "the parts are longer than the array");
+            if let Some((_, [slot, ..])) = out.split_at_mut_checked(at) {
+                *slot = *byte;
+            }
+            at += 1;
+            bytes = more_bytes;
+        }
+        parts = more_parts;
+    }
+    assert!(at == N, "the parts are shorter than the array");
+    out
+}
+
 /// Writes one `<PatrolDevice>` document: header elements, then items, in the document's layout.
 ///
 /// Items open an `<Items>` block on first use; a document with no items gets `<Items/>`.
@@ -166,11 +213,9 @@ impl<'a> DocumentWriter<'a> {
         command: i32,
         time: &Timestamp,
     ) -> Result<Self, WriteError> {
-        let [type_text, command_text] = [message_type, command].map(|value| {
-            let mut text = [0; I32_TEXT_MAX];
-            let len = number::write_i32(value, &mut text);
-            (text, len)
-        });
+        let (mut type_text, mut command_text) = ([0; I32_TEXT_MAX], [0; I32_TEXT_MAX]);
+        let type_len = number::write_i32(message_type, &mut type_text);
+        let command_len = number::write_i32(command, &mut command_text);
         let mut time_text = [0; TIME_TEXT_LEN];
         time.encode(&mut time_text);
         let mut doc = Self {
@@ -179,25 +224,22 @@ impl<'a> DocumentWriter<'a> {
             items_open: false,
             blocks: 0,
         };
-        let [declaration, after_type, after_command, after_time] = HEADER;
-        let pieces = [
-            declaration,
-            prefix(&type_text.0, type_text.1),
-            after_type,
-            prefix(&command_text.0, command_text.1),
-            after_command,
-            &time_text,
-            after_time,
-        ];
         // The default build writes the header in one piece where it fits (`fast`); the
         // result is the same.
         #[cfg(not(feature = "compact"))]
-        if doc.header(&type_text, &command_text, &time_text) {
+        if doc.header(
+            (&type_text, type_len),
+            (&command_text, command_len),
+            &time_text,
+        ) {
             return Ok(doc);
         }
-        for piece in pieces {
-            doc.raw(piece)?;
-        }
+        let values = [
+            prefix(&type_text, type_len),
+            prefix(&command_text, command_len),
+            &time_text,
+        ];
+        doc.fill(&HEADER_TEMPLATE, &values)?;
         Ok(doc)
     }
 
@@ -241,11 +283,19 @@ impl<'a> DocumentWriter<'a> {
     // is formatted by the caller, where what kind of number it is may be known.
     #[inline(never)]
     fn text_line(&mut self, name: ItemName, text: &[u8]) -> Result<(), WriteError> {
-        let name = name.as_bytes();
-        for piece in [ITEM_OPEN.as_slice(), name, b">", text, b"</", name, b">\n"] {
-            self.raw(piece)?;
-        }
-        Ok(())
+        self.fill(&LINE_TEMPLATE, &[name.as_bytes(), text])
+    }
+
+    /// Appends `template`, each of its bytes that numbers one of `fields` (see
+    /// [`HEADER_TEMPLATE`]) replaced by that field.
+    // Out of line: one loop appends the header and every line, where a call for each of
+    // their pieces would be repeated at every caller.
+    #[inline(never)]
+    fn fill(&mut self, template: &[u8], fields: &[&[u8]]) -> Result<(), WriteError> {
+        template.iter().try_for_each(|byte| {
+            let field = fields.get(usize::from(*byte)).copied();
+            self.raw(field.unwrap_or(core::slice::from_ref(byte)))
+        })
     }
 
     /// Appends `bytes`.
