@@ -306,23 +306,19 @@ impl HeaderElement {
     /// The header elements in the order real documents write them.
     const ORDER: [Self; 3] = [Self::Type, Self::Command, Self::Time];
 
+    /// Their element names, in the same order: one list that both ways between an element
+    /// and its name read, where a `match` each way would compare and copy each name apart.
+    const NAMES: [&'static str; 3] = ["Type", "Command", "Time"];
+
     /// The header element called `tag`, or `None` for another element.
     fn named(tag: &[u8]) -> Option<Self> {
-        match tag {
-            b"Type" => Some(Self::Type),
-            b"Command" => Some(Self::Command),
-            b"Time" => Some(Self::Time),
-            _ => None,
-        }
+        let index = Self::NAMES.iter().position(|name| name.as_bytes() == tag)?;
+        Self::ORDER.get(index).copied()
     }
 
     /// Its element name.
     fn name(self) -> &'static str {
-        match self {
-            Self::Type => "Type",
-            Self::Command => "Command",
-            Self::Time => "Time",
-        }
+        Self::NAMES.get(self as usize).copied().unwrap_or_default()
     }
 }
 
