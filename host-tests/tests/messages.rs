@@ -730,6 +730,11 @@ fn an_item_there_twice_reads_as_its_last_occurrence() {
             read("<H>x</H><PosX>2</PosX><H>7</H>"),
             (Some(7), 2f32.to_bits(), none.clone())
         );
+        // A float unreadable after a readable one reads as left out: NaN, not the first.
+        assert_eq!(
+            read("<PosX>1.5</PosX><H>1</H><PosX>1,5</PosX>"),
+            (Some(1), f32::NAN.to_bits(), vec!["PosX".to_string()])
+        );
     }
 }
 

@@ -75,7 +75,20 @@ pub trait ItemValue: Sized {
     fn to_raw(&self) -> Raw;
     /// The field from the bits of a wire value of its own kind.
     fn from_raw_bits(bits: u32) -> Self;
+
+    /// The field from its item's wire value, `present` or not: an absent item's value is
+    /// its kind's absent value ([`ABSENT_FLOAT`] or 0), which the field reads as it reads
+    /// any value (a missing float is NaN, a missing code is code 0); an `Option` reads it as
+    /// `None`.
+    fn from_wire(bits: u32, present: bool) -> Self {
+        let _ = present;
+        Self::from_raw_bits(bits)
+    }
 }
+
+/// The wire value of an absent float item: NaN, as a robot writes a reading it does not
+/// have.
+const ABSENT_FLOAT: u32 = 0x7fc0_0000;
 
 impl ItemValue for f32 {
     const KIND: Kind = Kind::Float;
@@ -124,14 +137,9 @@ impl<T: ItemValue> ItemValue for Option<T> {
     fn from_raw_bits(bits: u32) -> Self {
         Some(T::from_raw_bits(bits))
     }
-}
 
-/// A field from its item as received, or `default` when the item was absent.
-pub fn field<T: ItemValue>(bits: u32, present: bool, default: impl FnOnce() -> T) -> T {
-    if present {
-        T::from_raw_bits(bits)
-    } else {
-        default()
+    fn from_wire(bits: u32, present: bool) -> Self {
+        present.then(|| T::from_raw_bits(bits))
     }
 }
 
@@ -452,6 +460,9 @@ pub(crate) fn read_values(
     sender: Sender,
 ) -> Result<Block, DecodeError> {
     let mut values = [0; MAX_ITEMS];
+    for (value, entry) in values.iter_mut().zip(table.entries) {
+        *value = absent(entry.kind);
+    }
     // The item after the one found last: documents list items in the table's order.
     let mut next = 0;
     let mut present: Present = 0;
@@ -545,8 +556,20 @@ fn read_item(
             *value = bits;
             Ok(PRESENT)
         }
-        Err(_) if sender == Sender::Robot && !spec.required => Ok(UNREADABLE),
+        Err(_) if sender == Sender::Robot && !spec.required => {
+            // An earlier occurrence's value goes with it.
+            *value = absent(spec.kind);
+            Ok(UNREADABLE)
+        }
         Err(error) => Err(error),
+    }
+}
+
+/// The wire value of an absent item of `kind`: [`ABSENT_FLOAT`] for a float, else 0.
+fn absent(kind: Kind) -> u32 {
+    match kind {
+        Kind::Float => ABSENT_FLOAT,
+        Kind::Int | Kind::Byte => 0,
     }
 }
 
@@ -634,8 +657,9 @@ fn not_a_number(
 
 /// Defines a struct whose fields are items, and its [`ItemSet`] implementation.
 ///
-/// Each field names its element and optionally a default used when the element is absent
-/// (items added in later protocol versions); fields without a default are required.
+/// Each field names its element, and `optional` if a document may leave it out (items added
+/// in later protocol versions), which reads as [`ItemValue::from_wire`] says; other fields are
+/// required.
 macro_rules! item_set {
     // An answer's items: an item set that is also an `AnswerItems`.
     (
@@ -644,7 +668,7 @@ macro_rules! item_set {
         pub struct $name:ident {
             $(
                 $(#[$fmeta:meta])*
-                pub $field:ident: $ty:ty = $wire:literal $(, default $default:expr)?;
+                pub $field:ident: $ty:ty = $wire:literal $(, $optional:ident)?;
             )*
         }
     ) => {
@@ -653,7 +677,7 @@ macro_rules! item_set {
             pub struct $name {
                 $(
                     $(#[$fmeta])*
-                    pub $field: $ty = $wire $(, default $default)?;
+                    pub $field: $ty = $wire $(, $optional)?;
                 )*
             }
         }
@@ -695,7 +719,7 @@ macro_rules! item_set {
         pub struct $name:ident {
             $(
                 $(#[$fmeta:meta])*
-                pub $field:ident: $ty:ty = $wire:literal $(, default $default:expr)?;
+                pub $field:ident: $ty:ty = $wire:literal $(, $optional:ident)?;
             )*
         }
     ) => {
@@ -711,7 +735,7 @@ macro_rules! item_set {
             const TABLE: &'static $crate::proto::message::items::Table =
                 $crate::proto::message::items::table!($(
                     $wire: <$ty as $crate::proto::message::items::ItemValue>::KIND,
-                        item_set!(@required $($default)?);
+                        item_set!(@required $($optional)?);
                 )*);
 
             fn to_values(
@@ -734,29 +758,24 @@ macro_rules! item_set {
 
             fn from_values(
                 values: &$crate::proto::message::items::Values,
-                #[allow(unused_variables)] present: $crate::proto::message::items::Present,
+                present: $crate::proto::message::items::Present,
             ) -> Self {
-                // Each field's position in the table, by name; only optional ones ask.
-                #[allow(non_camel_case_types, dead_code)]
+                use $crate::proto::message::items::ItemValue;
+                // Each field's position in the table, by name.
+                #[allow(non_camel_case_types)]
                 enum Position { $($field),* }
                 let [$($field,)* ..] = *values;
                 Self {
-                    $( $field: item_set!(
-                        @field $field, present >> Position::$field as u32 & 1 != 0 $(, $default)?
+                    $( $field: ItemValue::from_wire(
+                        $field,
+                        present >> Position::$field as u32 & 1 != 0,
                     ), )*
                 }
             }
         }
     };
     (@required) => { true };
-    (@required $default:expr) => { false };
-    // read_items has checked that required items are present: no branch for absence.
-    (@field $bits:ident, $present:expr) => {
-        $crate::proto::message::items::ItemValue::from_raw_bits($bits)
-    };
-    (@field $bits:ident, $present:expr, $default:expr) => {
-        $crate::proto::message::items::field($bits, $present, || $default)
-    };
+    (@required optional) => { false };
 }
 pub(crate) use item_set;
 

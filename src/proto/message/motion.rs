@@ -275,7 +275,7 @@ item_set! {
         /// `Value` as requested (a gait number arrives as an integral float); `None` if the
         /// answer leaves it out. Only `ErrorCode` says what the robot did, so an answer
         /// without the echo is still read rather than taken for a failure.
-        pub value: Option<f32> = "Value", default None;
+        pub value: Option<f32> = "Value", optional;
         /// Success, or failure (a navigation task running, a bad speed).
         #[cfg_attr(feature = "serde", serde(rename = "error_code"))]
         pub result: CommandResult = "ErrorCode";

@@ -40,7 +40,7 @@ item_set! {
         /// Terrain-map mode on the way.
         pub terrain: Terrain = "Terrain";
         /// Body height on the way; absent before protocol V1.0.9, meaning normal height.
-        pub posture: Posture = "Posture", default Posture::Normal;
+        pub posture: Posture = "Posture", optional;
     }
 }
 
@@ -159,7 +159,7 @@ item_set! {
         pub outcome: NavOutcome = "ErrorCode";
         /// Why; absent before protocol V1.0.9.
         #[cfg_attr(feature = "serde", serde(rename = "error_status"))]
-        pub status: ErrorStatus = "ErrorStatus", default ErrorStatus::Default;
+        pub status: ErrorStatus = "ErrorStatus", optional;
     }
 }
 

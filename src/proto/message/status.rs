@@ -20,45 +20,45 @@ item_set! {
         /// Motion state.
         pub motion_state: MotionState = "MotionState";
         /// Position in the map frame, m.
-        pub pos_x: f32 = "PosX", default f32::NAN;
+        pub pos_x: f32 = "PosX", optional;
         /// Position in the map frame, m.
-        pub pos_y: f32 = "PosY", default f32::NAN;
+        pub pos_y: f32 = "PosY", optional;
         /// Position in the map frame, m.
-        pub pos_z: f32 = "PosZ", default f32::NAN;
+        pub pos_z: f32 = "PosZ", optional;
         /// Attitude in the map frame, rad.
-        pub roll: f32 = "Roll", default f32::NAN;
+        pub roll: f32 = "Roll", optional;
         /// Attitude in the map frame, rad.
-        pub pitch: f32 = "Pitch", default f32::NAN;
+        pub pitch: f32 = "Pitch", optional;
         /// Attitude in the map frame, rad.
-        pub yaw: f32 = "Yaw", default f32::NAN;
+        pub yaw: f32 = "Yaw", optional;
         /// Forward speed, m/s.
-        pub speed: f32 = "Speed", default f32::NAN;
+        pub speed: f32 = "Speed", optional;
         /// Odometry since power-on, km.
-        pub cur_odom: f32 = "CurOdom", default f32::NAN;
+        pub cur_odom: f32 = "CurOdom", optional;
         /// Total odometry, km.
-        pub sum_odom: f32 = "SumOdom", default f32::NAN;
+        pub sum_odom: f32 = "SumOdom", optional;
         /// Metres per map-image pixel.
-        pub res: f32 = "Res", default f32::NAN;
+        pub res: f32 = "Res", optional;
         /// Map-frame x of the map image's bottom-left corner, m.
-        pub x0: f32 = "X0", default f32::NAN;
+        pub x0: f32 = "X0", optional;
         /// Map-frame y of the map image's bottom-left corner, m.
-        pub y0: f32 = "Y0", default f32::NAN;
+        pub y0: f32 = "Y0", optional;
         /// Map image height, px.
-        pub h: Option<i32> = "H", default None;
+        pub h: Option<i32> = "H", optional;
         /// Battery charge, %.
-        pub electricity: Option<i32> = "Electricity", default None;
+        pub electricity: Option<i32> = "Electricity", optional;
         /// Localisation state.
-        pub location: Option<Location> = "Location", default None;
+        pub location: Option<Location> = "Location", optional;
         /// Gait (the 1002 numbering).
-        pub gait_state: Option<GaitState> = "GaitState", default None;
+        pub gait_state: Option<GaitState> = "GaitState", optional;
         /// Motor state.
-        pub motor_state: Option<MotorState> = "MotorState", default None;
+        pub motor_state: Option<MotorState> = "MotorState", optional;
         /// Charging state.
-        pub charge_state: Option<ChargeState> = "ChargeState", default None;
+        pub charge_state: Option<ChargeState> = "ChargeState", optional;
         /// Manual or automatic control.
-        pub control_mode: Option<ControlMode> = "ControlMode", default None;
+        pub control_mode: Option<ControlMode> = "ControlMode", optional;
         /// Whether the robot lies on its dock.
-        pub on_dock_state: Option<OnDockState> = "OnDockState", default None;
+        pub on_dock_state: Option<OnDockState> = "OnDockState", optional;
     }
 }
 
@@ -200,7 +200,7 @@ item_set! {
         /// Charge, %.
         pub battery_level: i32 = "BatteryLevel";
         /// Temperature, °C; absent before protocol V1.0.11.
-        pub battery_temperature: Option<f32> = "BatteryTemperature", default None;
+        pub battery_temperature: Option<f32> = "BatteryTemperature", optional;
     }
 }
 
