@@ -316,7 +316,8 @@ impl HeaderElement {
         Self::ORDER.get(index).copied()
     }
 
-    /// Its element name.
+    /// Its element name. Out of line in a `compact` build, where only errors ask.
+    #[cfg_attr(feature = "compact", inline(never))]
     fn name(self) -> &'static str {
         Self::NAMES.get(self as usize).copied().unwrap_or_default()
     }
@@ -337,8 +338,6 @@ pub struct Item<'a> {
 #[derive(Debug)]
 pub struct Items<'t, 'a> {
     tokens: &'t mut Tokenizer<'a>,
-    /// Depth of the `<Items>` element: its end tag brings the tokenizer below this.
-    depth: usize,
     done: bool,
 }
 
@@ -346,11 +345,7 @@ impl<'t, 'a> Items<'t, 'a> {
     /// Items read from the document's tokenizer, just after `<Items>`, or none (`done`) for
     /// an empty block (`<Items/>`).
     fn new(tokens: &'t mut Tokenizer<'a>, done: bool) -> Self {
-        Self {
-            depth: tokens.depth(),
-            tokens,
-            done,
-        }
+        Self { tokens, done }
     }
 
     /// Reads whatever the consumer left, so the whole block is checked and the tokenizer is
@@ -425,10 +420,10 @@ impl<'a> Iterator for Items<'_, 'a> {
                     name,
                     text: Some(&[]),
                 }),
-                Token::End(_) if self.tokens.depth() < self.depth => break,
-                // Stray text between items is layout; other end tags are consumed by
-                // element_text.
-                Token::Text(_) | Token::End(_) => continue,
+                // The block's end: every item's own end tag is consumed by element_text.
+                Token::End(_) => break,
+                // Stray text between items is layout.
+                Token::Text(_) => continue,
             });
         }
         self.done = true;
