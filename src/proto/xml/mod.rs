@@ -100,127 +100,117 @@ where
 /// shortcut. `on_items` is called through a pointer (once per block), so that one copy of
 /// the document reader serves requests and responses alike.
 pub(crate) fn read_tokens<'a, E>(
-    tokens: Tokenizer<'a>,
+    document: Tokenizer<'a>,
     on_items: &mut dyn FnMut(&Envelope, &mut Items<'_, 'a>) -> Result<(), E>,
 ) -> Result<(Envelope, usize), E>
 where
     E: From<StructureError>,
 {
-    let start = tokens.clone();
-    match read_pass(tokens, on_items, None)? {
-        (envelope, blocks, false) => Ok((envelope, blocks)),
-        // The first pass read no block (the first came before the header was complete),
-        // and checked the whole document: the second reads every block, in order.
-        (envelope, _, true) => read_pass(start, on_items, Some(envelope))
-            .map(|(envelope, blocks, _)| (envelope, blocks)),
-    }
-}
-
-/// One pass of [`read_tokens`]: reads the document, and hands each block to `on_items` with
-/// the `known` envelope, or without one with the header read so far if it is complete and
-/// no block was passed over. Returns the envelope, the number of blocks, and whether any
-/// block was passed over (only checked), for want of an envelope.
-fn read_pass<'a, E>(
-    mut tokens: Tokenizer<'a>,
-    on_items: &mut dyn FnMut(&Envelope, &mut Items<'_, 'a>) -> Result<(), E>,
-    known: Option<Envelope>,
-) -> Result<(Envelope, usize, bool), E>
-where
-    E: From<StructureError>,
-{
     let xml = |e: XmlError| E::from(StructureError::Xml(e));
-    if !tokens.plain_root(b"PatrolDevice") {
-        match tokens.next_token().map_err(xml)? {
-            Some(Token::Start(b"PatrolDevice")) => {}
-            _ => return Err(StructureError::NotPatrolDevice.into()),
-        }
-    }
-    let mut header = Header::default();
-    let mut passed_over = false;
-    let mut blocks = 0;
-    // The header element real documents write next.
-    let mut next_header = HeaderElement::ORDER.iter();
-    let mut expected = next_header.next();
+    // Blocks are handed over with this envelope in a second pass, or, in the first, with the
+    // header read so far if it is complete and no block was passed over (only checked) for
+    // want of one.
+    let mut known = None;
     loop {
-        // The usual layout without tokens: the header line expected next, the start of a
-        // block, other header lines and unknown plain elements, and the end of the document.
-        if let Some(&element) = expected
-            && header.take_plain(&mut tokens, element)
-        {
-            expected = next_header.next();
-            continue;
-        }
-        let token = if tokens.plain_start(b"Items") {
-            Token::Start(b"Items")
-        } else if let Some(element) = tokens.simple_element().filter(|e| e.name != b"Items") {
-            tokens.take(&element);
-            if let Some(header_element) = HeaderElement::named(element.name) {
-                header.set(header_element, element.text)?;
-            }
-            continue;
-        } else if tokens.plain_end(b"PatrolDevice") {
-            continue;
-        } else {
+        let mut tokens = document.clone();
+        if !tokens.plain_root(b"PatrolDevice") {
             match tokens.next_token().map_err(xml)? {
-                Some(token) => token,
-                None => break,
+                Some(Token::Start(b"PatrolDevice")) => {}
+                _ => return Err(StructureError::NotPatrolDevice.into()),
             }
-        };
-        let (tag, empty) = match token {
-            Token::Start(tag) => (tag, false),
-            Token::Empty(tag) => (tag, true),
-            Token::End(_) | Token::Text(_) => continue,
-        };
-        if tag != b"Items" {
-            if !empty {
-                // Any other element is read whole too, which checks it, and passed over.
-                let text = element_text(&mut tokens).map_err(xml)?;
-                if let Some(element) = HeaderElement::named(tag) {
-                    header.set(
-                        element,
-                        text.ok_or(StructureError::NotText(element.name()))?,
-                    )?;
+        }
+        let mut header = Header::default();
+        let mut passed_over = false;
+        let mut blocks = 0;
+        // The header element real documents write next.
+        let mut next_header = HeaderElement::ORDER.iter();
+        let mut expected = next_header.next();
+        loop {
+            // The usual layout without tokens: the header line expected next, the start of a
+            // block, other header lines and unknown plain elements, and the end of the document.
+            if let Some(&element) = expected
+                && header.take_plain(&mut tokens, element)
+            {
+                expected = next_header.next();
+                continue;
+            }
+            let token = if tokens.plain_start(b"Items") {
+                Token::Start(b"Items")
+            } else if let Some(element) = tokens.simple_element().filter(|e| e.name != b"Items") {
+                tokens.take(&element);
+                if let Some(header_element) = HeaderElement::named(element.name) {
+                    header.set(header_element, element.text)?;
                 }
-            }
-            continue;
-        }
-        blocks += 1;
-        if blocks > MAX_ITEMS_BLOCKS {
-            return Err(StructureError::TooManyItemsBlocks.into());
-        }
-        let envelope = match (known, header.message_type, header.command) {
-            (Some(envelope), ..) => Some(envelope),
-            (None, Some(message_type), Some(command)) if !passed_over => Some(Envelope {
-                message_type,
-                command,
-                time: header.time,
-            }),
-            _ => None,
-        };
-        match envelope {
-            Some(envelope) => {
-                let mut items = Items::new(&mut tokens, empty);
-                on_items(&envelope, &mut items)?;
-                items.finish().map_err(xml)?;
-            }
-            None => {
-                passed_over = true;
+                continue;
+            } else if tokens.plain_end(b"PatrolDevice") {
+                continue;
+            } else {
+                match tokens.next_token().map_err(xml)? {
+                    Some(token) => token,
+                    None => break,
+                }
+            };
+            let (tag, empty) = match token {
+                Token::Start(tag) => (tag, false),
+                Token::Empty(tag) => (tag, true),
+                Token::End(_) | Token::Text(_) => continue,
+            };
+            if tag != b"Items" {
                 if !empty {
-                    element_text(&mut tokens).map_err(xml)?;
+                    // Any other element is read whole too, which checks it, and passed over.
+                    let text = element_text(&mut tokens).map_err(xml)?;
+                    if let Some(element) = HeaderElement::named(tag) {
+                        header.set(
+                            element,
+                            text.ok_or(StructureError::NotText(element.name()))?,
+                        )?;
+                    }
+                }
+                continue;
+            }
+            blocks += 1;
+            if blocks > MAX_ITEMS_BLOCKS {
+                return Err(StructureError::TooManyItemsBlocks.into());
+            }
+            let envelope = match (known, header.message_type, header.command) {
+                (Some(envelope), ..) => Some(envelope),
+                (None, Some(message_type), Some(command)) if !passed_over => Some(Envelope {
+                    message_type,
+                    command,
+                    time: header.time,
+                }),
+                _ => None,
+            };
+            match envelope {
+                Some(envelope) => {
+                    let mut items = Items::new(&mut tokens, empty);
+                    on_items(&envelope, &mut items)?;
+                    items.finish().map_err(xml)?;
+                }
+                None => {
+                    passed_over = true;
+                    if !empty {
+                        element_text(&mut tokens).map_err(xml)?;
+                    }
                 }
             }
         }
+        let envelope = Envelope {
+            message_type: header
+                .message_type
+                .ok_or(StructureError::MissingElement("Type"))?,
+            command: header
+                .command
+                .ok_or(StructureError::MissingElement("Command"))?,
+            time: header.time,
+        };
+        if !passed_over {
+            return Ok((envelope, blocks));
+        }
+        // The first pass read no block (the first came before the header was complete), and
+        // checked the whole document: the second reads every block, in order.
+        known = Some(envelope);
     }
-    let envelope = Envelope {
-        message_type: header
-            .message_type
-            .ok_or(StructureError::MissingElement("Type"))?,
-        command: header
-            .command
-            .ok_or(StructureError::MissingElement("Command"))?,
-        time: header.time,
-    };
-    Ok((envelope, blocks, passed_over))
 }
 
 /// The header elements read so far.
