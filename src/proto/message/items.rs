@@ -13,6 +13,7 @@ use super::DecodeError;
 use crate::proto::codes::Code;
 use crate::proto::xml::Items;
 use crate::proto::xml::number;
+use crate::proto::xml::reader::Tokenizer;
 use crate::proto::xml::writer::{DocumentWriter, ItemName, NAME_MAX, Number, WriteError};
 
 /// What an item holds on the wire.
@@ -143,16 +144,46 @@ impl<T: ItemValue> ItemValue for Option<T> {
     }
 }
 
-/// One item as its [`Table`] keeps it: where its name ends among the table's names, and
-/// what it holds.
+/// One item as its [`Table`] keeps it, in two bytes: where its name starts among the
+/// table's names, and the name's length with what the item holds in the top bits. So an
+/// item is found from its own entry alone.
 #[derive(Clone, Copy)]
 pub struct Entry {
-    end: u8,
-    kind: Kind,
+    start: u8,
+    len_kind: u8,
+}
+
+impl Entry {
+    /// The entry of a name at `start` of `len` bytes (below 32) for an item of `kind`.
+    const fn new(start: usize, len: usize, kind: Kind) -> Self {
+        Self {
+            start: start as u8,
+            len_kind: len as u8 | (kind as u8) << 5,
+        }
+    }
+
+    /// Where the name starts among the table's names.
+    const fn start(self) -> usize {
+        self.start as usize
+    }
+
+    /// Where the name ends among the table's names.
+    const fn end(self) -> usize {
+        self.start() + (self.len_kind & 31) as usize
+    }
+
+    /// What the item holds.
+    const fn kind(self) -> Kind {
+        match self.len_kind >> 5 {
+            0 => Kind::Float,
+            1 => Kind::Int,
+            _ => Kind::Byte,
+        }
+    }
 }
 
 /// A message's items, in the order the document lists them: their names one after another,
-/// two bytes an item, and what the reader derives from them once, at build time, so that
+/// two bytes an item ([`Entry`]), and what the reader derives from them once, at build time, so that
 /// reading a block takes one pointer to all of it. Made by `table!`.
 pub struct Table {
     /// The items' names, one after another.
@@ -191,52 +222,44 @@ impl Table {
 
     /// The item at `index`, if there is one.
     pub const fn item(&self, index: usize) -> Option<ItemSpec> {
-        let Some((before, [entry, ..])) = self.entries.split_at_checked(index) else {
+        let Some((_, [entry, ..])) = self.entries.split_at_checked(index) else {
             return None;
         };
-        let start = match before.last() {
-            Some(previous) => previous.end as usize,
-            None => 0,
-        };
-        let Some((name, _)) = self.names.split_at_checked(entry.end as usize) else {
-            return None;
-        };
-        let Some((_, name)) = name.split_at_checked(start) else {
+        let Some(name) = self.name(*entry) else {
             return None;
         };
         Some(ItemSpec {
             name: ItemName::from_table(name),
-            kind: entry.kind,
+            kind: entry.kind(),
             required: self.required >> index & 1 != 0,
         })
+    }
+
+    /// The name of `entry`, one of the table's.
+    const fn name(&self, entry: Entry) -> Option<&'static [u8]> {
+        let Some((name, _)) = self.names.split_at_checked(entry.end()) else {
+            return None;
+        };
+        match name.split_at_checked(entry.start()) {
+            Some((_, name)) => Some(name),
+            None => None,
+        }
     }
 
     /// Where the item called `name` (compared without regard to ASCII case) is. Names are
     /// unique in a table, so the first found is the only one.
     fn find(&self, name: &[u8]) -> Option<usize> {
-        let mut start = 0;
-        for (index, entry) in self.entries.iter().enumerate() {
-            let end = usize::from(entry.end);
-            if self
-                .names
-                .get(start..end)
+        self.entries.iter().position(|&entry| {
+            self.name(entry)
                 .is_some_and(|candidate| candidate.eq_ignore_ascii_case(name))
-            {
-                return Some(index);
-            }
-            start = end;
-        }
-        None
+        })
     }
 }
 
 /// The entries of the items called `names` (at most [`NAME_MAX`] ASCII bytes each, 255 in
 /// all, checked when the constant is built) that hold `kinds`.
 pub const fn entries<const N: usize>(names: [&str; N], kinds: [Kind; N]) -> [Entry; N] {
-    let mut entries = [Entry {
-        end: 0,
-        kind: Kind::Int,
-    }; N];
+    let mut entries = [Entry::new(0, 0, Kind::Int); N];
     let mut end = 0;
     let (mut names, mut kinds, mut slots) =
         (names.as_slice(), kinds.as_slice(), entries.as_mut_slice());
@@ -248,15 +271,12 @@ pub const fn entries<const N: usize>(names: [&str; N], kinds: [Kind; N]) -> [Ent
             name.len() <= NAME_MAX && name.is_ascii(),
             "an item name is at most 19 ASCII bytes"
         );
+        *slot = Entry::new(end, name.len(), *kind);
         end += name.len();
         assert!(
             end <= u8::MAX as usize,
             "a table's names take at most 255 bytes"
         );
-        *slot = Entry {
-            end: end as u8,
-            kind: *kind,
-        };
         (names, kinds, slots) = (more_names, more_kinds, more_slots);
     }
     entries
@@ -345,16 +365,13 @@ impl NameFilter {
     const fn of(names: &[u8], entries: &[Entry]) -> Self {
         let mut set: u128 = 0;
         let mut rest = entries;
-        let mut start = 0;
         while let [entry, tail @ ..] = rest {
-            let end = entry.end as usize;
-            if let Some((name, _)) = names.split_at_checked(end)
-                && let Some((_, name)) = name.split_at_checked(start)
+            if let Some((name, _)) = names.split_at_checked(entry.end())
+                && let Some((_, name)) = name.split_at_checked(entry.start())
             {
                 let [a, b] = Self::bits(name);
                 set |= 1 << a | 1 << b;
             }
-            start = end;
             rest = tail;
         }
         Self([
@@ -419,12 +436,10 @@ pub(crate) fn write_values(
     present: Present,
     sender: Sender,
 ) -> Result<(), WriteError> {
-    for (index, &bits) in values.iter().enumerate().take(table.len()) {
-        if present >> index & 1 == 0 {
-            continue;
-        }
-        if let Some(item) = table.item(index) {
-            doc.number_item(item.name, number(item.kind, bits, sender))?;
+    for (index, (&entry, &bits)) in table.entries.iter().zip(values).enumerate() {
+        if present >> index & 1 != 0 {
+            let name = ItemName::from_table(table.name(entry).unwrap_or_default());
+            doc.number_item(name, number(entry.kind(), bits, sender))?;
         }
     }
     Ok(())
@@ -459,10 +474,20 @@ pub(crate) fn read_values(
     table: &Table,
     sender: Sender,
 ) -> Result<Block, DecodeError> {
+    let (tokens, done) = items.parts();
+    read_block(tokens, done, table, sender)
+}
+
+/// [`read_values`] from the block's tokenizer and whether it has ended (see [`Items::parts`]).
+#[inline(never)]
+fn read_block(
+    tokens: &mut Tokenizer<'_>,
+    done: &mut bool,
+    table: &Table,
+    sender: Sender,
+) -> Result<Block, DecodeError> {
+    let items = &mut Items::new(tokens, *done);
     let mut values = [0; MAX_ITEMS];
-    for (value, entry) in values.iter_mut().zip(table.entries) {
-        *value = absent(entry.kind);
-    }
     // The item after the one found last: documents list items in the table's order.
     let mut next = 0;
     let mut present: Present = 0;
@@ -522,6 +547,16 @@ pub(crate) fn read_values(
             next = index + 1;
         }
     }
+    // Every item not read takes its kind's absent value, as if the robot had left it out.
+    let mut absent_items = !present;
+    while let Some((value, entry)) = values
+        .get_mut(absent_items.trailing_zeros() as usize)
+        .zip(table.entries.get(absent_items.trailing_zeros() as usize))
+    {
+        *value = absent(entry.kind());
+        absent_items &= absent_items - 1;
+    }
+    *done = items.is_done();
     match table.required & !present {
         0 => Ok(Block {
             values,
@@ -556,11 +591,7 @@ fn read_item(
             *value = bits;
             Ok(PRESENT)
         }
-        Err(_) if sender == Sender::Robot && !spec.required => {
-            // An earlier occurrence's value goes with it.
-            *value = absent(spec.kind);
-            Ok(UNREADABLE)
-        }
+        Err(_) if sender == Sender::Robot && !spec.required => Ok(UNREADABLE),
         Err(error) => Err(error),
     }
 }

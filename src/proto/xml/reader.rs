@@ -551,31 +551,42 @@ const SPACE_BYTE: u8 = 1 << 2;
 /// A byte that ends plain text: `<` (markup) or `&` (a reference).
 const TEXT_END: u8 = 1 << 3;
 
-/// The class of every byte, two bits each (0: none of the others; 1: a name byte; 2:
-/// whitespace; 3: the end of plain text), so that the scanning loops cost one lookup per
-/// byte instead of a chain of comparisons, in 64 bytes of flash.
+/// The class of the byte `c`: 0 for none of the others, 1 for a name byte, 2 for
+/// whitespace, 3 for the end of plain text.
+const fn class(c: u8) -> u8 {
+    if c.is_ascii_alphanumeric() || matches!(c, b'_' | b'-' | b'.' | b':') || c >= 0x80 {
+        1
+    } else if c.is_ascii_whitespace() {
+        2
+    } else if c == b'<' || c == b'&' {
+        3
+    } else {
+        0
+    }
+}
+
+/// Every byte's [`class`], so that the scanning loops cost one lookup per byte instead of a
+/// chain of comparisons: a byte each in the default build; two bits each, 64 bytes of
+/// flash, in a `compact` build, whose lookups then take a shift more.
+#[cfg(not(feature = "compact"))]
+static CLASSES: [u8; 256] = classes();
+
+/// Every byte's [`class`], two bits each (see the default build's).
+#[cfg(feature = "compact")]
 static CLASSES: [u8; 64] = classes();
 
+/// [`CLASSES`] as this build keeps it.
 #[expect(
     clippy::indexing_slicing,
-    reason = "the index is below 64 by the loop's bound"
+    reason = "the index is below the table's length by the loop's bound"
 )]
-const fn classes() -> [u8; 64] {
-    let mut table = [0; 64];
+const fn classes<const N: usize>() -> [u8; N] {
+    // Bytes a table entry holds: one or four.
+    let per_entry = 256 / N;
+    let mut table = [0; N];
     let mut b = 0;
     while b < 256 {
-        let c = b as u8;
-        let class =
-            if c.is_ascii_alphanumeric() || matches!(c, b'_' | b'-' | b'.' | b':') || c >= 0x80 {
-                1
-            } else if c.is_ascii_whitespace() {
-                2
-            } else if c == b'<' || c == b'&' {
-                3
-            } else {
-                0
-            };
-        table[b / 4] |= class << (b % 4 * 2);
+        table[b / per_entry] |= class(b as u8) << (b % per_entry * 2);
         b += 1;
     }
     table
@@ -584,6 +595,9 @@ const fn classes() -> [u8; 64] {
 /// Whether `b` is of one of the `classes` (a set of `1 << class`).
 #[inline(always)]
 fn is(b: u8, classes: u8) -> bool {
+    #[cfg(not(feature = "compact"))]
+    let class = CLASSES.get(usize::from(b)).copied().unwrap_or(0);
+    #[cfg(feature = "compact")]
     let class = CLASSES
         .get(usize::from(b / 4))
         .map_or(0, |four| four >> (b % 4 * 2) & 3);
@@ -635,6 +649,7 @@ fn text_len(bytes: &[u8]) -> Option<usize> {
 
 /// Whether `bytes` starts with `prefix`. Names of up to 16 bytes are compared as two
 /// overlapping fixed-size pieces: a call to `memcmp` costs more than such a short compare.
+#[cfg_attr(not(feature = "compact"), inline(always))]
 fn has_prefix(bytes: &[u8], prefix: &[u8]) -> bool {
     fn same<const N: usize>(a: &[u8], b: &[u8], at: usize) -> bool {
         let a = a.get(at..).and_then(|a| a.first_chunk::<N>());

@@ -146,7 +146,7 @@ impl Tags for ItemName {
     fn open(&self, window: &mut [u8; LINE_WINDOW]) -> usize {
         let start = ITEM_OPEN.len() + self.len() + 1;
         store(window, 0, ITEM_OPEN);
-        put_name(window, ITEM_OPEN.len(), self.0);
+        self.put(window, ITEM_OPEN.len());
         store(window, start - 1, b">");
         start
     }
@@ -154,7 +154,7 @@ impl Tags for ItemName {
     #[inline(always)]
     fn close(&self, window: &mut [u8; LINE_WINDOW], at: usize) -> usize {
         store(window, at, b"</");
-        put_name(window, at + 2, self.0);
+        self.put(window, at + 2);
         store(window, at + 2 + self.len(), b">\n");
         self.len() + 4
     }
@@ -167,14 +167,41 @@ impl ItemName {
     fn len(&self) -> usize {
         self.0.len().min(NAME_MAX)
     }
+
+    /// Copies the name to `at` in `window`, in fixed-size pieces that overlap where the name
+    /// is not a multiple of them: a copy of a length known only at run time would be a call
+    /// to `memcpy`, a third of a request's line. Nothing is written where it does not fit,
+    /// which the callers' offsets rule out.
+    #[inline(always)]
+    fn put(&self, window: &mut [u8; LINE_WINDOW], at: usize) {
+        let name = self.0;
+        let n = name.len();
+        match n {
+            8.. => {
+                piece::<8>(window, at, name, 0);
+                if n > 16 {
+                    piece::<8>(window, at, name, 8);
+                }
+                piece::<8>(window, at, name, n - 8);
+            }
+            4.. => {
+                piece::<4>(window, at, name, 0);
+                piece::<4>(window, at, name, n - 4);
+            }
+            2.. => {
+                piece::<2>(window, at, name, 0);
+                piece::<2>(window, at, name, n - 2);
+            }
+            _ => piece::<1>(window, at, name, 0),
+        }
+    }
 }
 
-/// Copies `name` to `at` in `window` (nothing if it does not fit, which the callers' offsets
-/// rule out).
+/// Copies `name[from..from + N]` to `at + from` in `window`.
 #[inline(always)]
-fn put_name(window: &mut [u8; LINE_WINDOW], at: usize, name: &[u8]) {
-    if let Some(to) = window.get_mut(at..at + name.len()) {
-        to.copy_from_slice(name);
+fn piece<const N: usize>(window: &mut [u8; LINE_WINDOW], at: usize, name: &[u8], from: usize) {
+    if let Some(from_name) = name.get(from..).and_then(|rest| rest.first_chunk::<N>()) {
+        store(window, at + from, from_name);
     }
 }
 

@@ -298,9 +298,9 @@ impl<'a> DocumentWriter<'a> {
         })
     }
 
-    /// Appends `bytes`.
-    // Out of line: every piece of markup goes through it.
-    #[inline(never)]
+    /// Appends `bytes`. Out of line in a `compact` build, where every piece of markup goes
+    /// through it; in the default build a constant piece then compiles to plain stores.
+    #[cfg_attr(feature = "compact", inline(never))]
     fn raw(&mut self, bytes: &[u8]) -> Result<(), WriteError> {
         let end = self.len + bytes.len();
         self.buf
