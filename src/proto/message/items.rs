@@ -14,6 +14,8 @@ use crate::proto::codes::Code;
 use crate::proto::xml::Items;
 use crate::proto::xml::number;
 use crate::proto::xml::reader::Tokenizer;
+#[cfg(not(feature = "compact"))]
+use crate::proto::xml::writer::PaddedName;
 use crate::proto::xml::writer::{DocumentWriter, ItemName, NAME_MAX, Number, WriteError};
 
 /// What an item holds on the wire.
@@ -206,6 +208,12 @@ impl Table {
     /// `entries` (made by [`entries`]), with the `required` ones (made by [`required`]).
     pub const fn new(names: &'static str, entries: &'static [Entry], required: Present) -> Self {
         let names = names.as_bytes();
+        if let [.., last] = entries {
+            assert!(
+                cfg!(feature = "compact") || names.len() > last.end() + NAME_MAX,
+                "the default build pads a table's names past the last by NAME_MAX and one"
+            );
+        }
         Self {
             names,
             entries,
@@ -304,8 +312,14 @@ macro_rules! table {
                 "an item table holds at most 32 items"
             )
         };
+        // The default build copies a table's name with the bytes after it in one fixed-size
+        // piece (`PaddedName`), which the last name needs padding for.
+        #[cfg(not(feature = "compact"))]
+        const NAMES: &str = concat!($($name,)* "\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0");
+        #[cfg(feature = "compact")]
+        const NAMES: &str = concat!($($name),*);
         &$crate::proto::message::items::Table::new(
-            concat!($($name),*),
+            NAMES,
             ENTRIES,
             $crate::proto::message::items::required([$($required),*]),
         )
@@ -437,10 +451,22 @@ pub(crate) fn write_values(
     sender: Sender,
 ) -> Result<(), WriteError> {
     for (index, (&entry, &bits)) in table.entries.iter().zip(values).enumerate() {
-        if present >> index & 1 != 0 {
-            let name = ItemName::from_table(table.name(entry).unwrap_or_default());
-            doc.number_item(name, number(entry.kind(), bits, sender))?;
+        if present >> index & 1 == 0 {
+            continue;
         }
+        let name = ItemName::from_table(table.name(entry).unwrap_or_default());
+        let number = number(entry.kind(), bits, sender);
+        // The default build copies the name from its table in one fixed-size piece.
+        #[cfg(not(feature = "compact"))]
+        if let Some(padded) = table
+            .names
+            .get(entry.start()..)
+            .and_then(|text| PaddedName::new(text, name.as_bytes().len()))
+        {
+            doc.tagged_item(padded, name, number)?;
+            continue;
+        }
+        doc.number_item(name, number)?;
     }
     Ok(())
 }

@@ -566,8 +566,9 @@ const fn class(c: u8) -> u8 {
 }
 
 /// Every byte's [`class`], so that the scanning loops cost one lookup per byte instead of a
-/// chain of comparisons: a byte each in the default build; two bits each, 64 bytes of
-/// flash, in a `compact` build, whose lookups then take a shift more.
+/// chain of comparisons: in the default build a byte each, `1 << class`, which [`is`] tests
+/// against a set of classes in one instruction; in a `compact` build two bits each, the
+/// class itself, 64 bytes of flash, whose lookups then take a shift or two more.
 #[cfg(not(feature = "compact"))]
 static CLASSES: [u8; 256] = classes();
 
@@ -581,12 +582,15 @@ static CLASSES: [u8; 64] = classes();
     reason = "the index is below the table's length by the loop's bound"
 )]
 const fn classes<const N: usize>() -> [u8; N] {
-    // Bytes a table entry holds: one or four.
-    let per_entry = 256 / N;
     let mut table = [0; N];
     let mut b = 0;
     while b < 256 {
-        table[b / per_entry] |= class(b as u8) << (b % per_entry * 2);
+        let class = class(b as u8);
+        if N == 256 {
+            table[b] = 1 << class;
+        } else {
+            table[b / 4] |= class << (b % 4 * 2);
+        }
         b += 1;
     }
     table
@@ -596,12 +600,13 @@ const fn classes<const N: usize>() -> [u8; N] {
 #[inline(always)]
 fn is(b: u8, classes: u8) -> bool {
     #[cfg(not(feature = "compact"))]
-    let class = CLASSES.get(usize::from(b)).copied().unwrap_or(0);
+    let set = CLASSES.get(usize::from(b)).copied().unwrap_or(1);
     #[cfg(feature = "compact")]
-    let class = CLASSES
-        .get(usize::from(b / 4))
-        .map_or(0, |four| four >> (b % 4 * 2) & 3);
-    classes >> class & 1 != 0
+    let set = 1
+        << CLASSES
+            .get(usize::from(b / 4))
+            .map_or(0, |four| four >> (b % 4 * 2) & 3);
+    set & classes != 0
 }
 
 /// Length of the run of bytes of `classes` at the start of `bytes`.

@@ -352,9 +352,9 @@ impl Window {
         let down = quotient * step;
         let up = down.saturating_add(step);
         let inside = |c: u32| (self.low..=self.high).contains(&c);
-        let up_is_nearer = self.y >= (2 * u64::from(down) + u64::from(step)) << 31;
+        let up_is_nearer = || self.y >= (2 * u64::from(down) + u64::from(step)) << 31;
         let chosen = match (inside(down), inside(up)) {
-            (true, true) if up_is_nearer => quotient + 1,
+            (true, true) if up_is_nearer() => quotient + 1,
             (true, _) => quotient,
             _ => quotient + 1,
         };

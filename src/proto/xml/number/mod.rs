@@ -106,17 +106,21 @@ fn scan_i64(text: &[u8]) -> (Result<i64, NumberError>, usize) {
     if digits == 0 {
         return (Err(NumberError::Invalid), used);
     }
-    // Any 19 digits fit a u64, and more than 19 (past leading zeros) never fit an i64; the
-    // magnitude may wrap only then.
+    let digits = body.get(..digits).unwrap_or_default();
     let mut magnitude = 0u64;
-    let mut significant = 0;
-    for &c in body.get(..digits).unwrap_or_default() {
+    for &c in digits {
         magnitude = magnitude.wrapping_mul(10).wrapping_add(u64::from(c - b'0'));
-        significant += usize::from(significant > 0 || c != b'0');
     }
+    // Any 19 digits fit a u64, and more than 19 past leading zeros never fit an i64; the
+    // magnitude may have wrapped only then.
+    let too_long = digits.len() > 19
+        && digits
+            .iter()
+            .position(|&c| c != b'0')
+            .is_some_and(|first| digits.len() - first > 19);
     // i64::MIN's magnitude is one more than i64::MAX's.
     let limit = i64::MAX as u64 + u64::from(negative);
-    let value = if significant > 19 || magnitude > limit {
+    let value = if too_long || magnitude > limit {
         Err(NumberError::OutOfRange)
     } else if negative {
         Ok(0i64.wrapping_sub_unsigned(magnitude))

@@ -71,12 +71,13 @@ impl DocumentWriter<'_> {
         Ok(true)
     }
 
-    /// Writes an item line whose tags are known where the code is compiled (`tags`, made
-    /// for the item called `name`): each is one constant copy.
+    /// Writes the line of item `name` whose tags `tags` write in fixed-size pieces: tags
+    /// known where the code is compiled ([`ItemTags`], one constant copy each) or a table's
+    /// padded name ([`PaddedName`], one copy of its window).
     #[inline(always)]
-    pub(crate) fn tagged_item<const OPEN: usize, const CLOSE: usize>(
+    pub(crate) fn tagged_item(
         &mut self,
-        tags: &ItemTags<OPEN, CLOSE>,
+        tags: impl Tags,
         name: ItemName,
         value: Number,
     ) -> Result<(), WriteError> {
@@ -133,7 +134,7 @@ fn store<const N: usize>(window: &mut [u8; LINE_WINDOW], at: usize, bytes: &[u8;
 }
 
 /// How an item line's tags are written into its window.
-pub(super) trait Tags {
+pub(crate) trait Tags {
     /// Writes the indentation and `<Name>` at the window's start; returns their length.
     fn open(&self, window: &mut [u8; LINE_WINDOW]) -> usize;
     /// Writes `</Name>` and the line's end at `at`; returns their length.
@@ -194,6 +195,46 @@ impl ItemName {
             }
             _ => piece::<1>(window, at, name, 0),
         }
+    }
+}
+
+/// A table's item name with what follows it among the table's names, [`NAME_MAX`] bytes
+/// and one more (the default build pads every table's names that far): its tags copy it in
+/// one piece, then write over what follows it.
+#[derive(Clone, Copy)]
+pub(crate) struct PaddedName<'n> {
+    text: &'n [u8; NAME_MAX + 1],
+    len: usize,
+}
+
+impl<'n> PaddedName<'n> {
+    /// The name of `len` bytes at the start of `text`; `None` if `text` is shorter than
+    /// [`NAME_MAX`] and one more byte.
+    #[inline(always)]
+    pub(crate) fn new(text: &'n [u8], len: usize) -> Option<Self> {
+        Some(Self {
+            text: text.first_chunk()?,
+            len: len.min(NAME_MAX),
+        })
+    }
+}
+
+impl Tags for PaddedName<'_> {
+    #[inline(always)]
+    fn open(&self, window: &mut [u8; LINE_WINDOW]) -> usize {
+        let start = ITEM_OPEN.len() + self.len + 1;
+        store(window, 0, ITEM_OPEN);
+        store(window, ITEM_OPEN.len(), self.text);
+        store(window, start - 1, b">");
+        start
+    }
+
+    #[inline(always)]
+    fn close(&self, window: &mut [u8; LINE_WINDOW], at: usize) -> usize {
+        store(window, at, b"</");
+        store(window, at + 2, self.text);
+        store(window, at + 2 + self.len, b">\n");
+        self.len + 4
     }
 }
 

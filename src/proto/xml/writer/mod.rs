@@ -21,7 +21,7 @@ mod fast;
 use super::number::{self, F32_TEXT_MAX, I32_TEXT_MAX};
 use crate::proto::time::{TIME_TEXT_LEN, Timestamp};
 #[cfg(not(feature = "compact"))]
-pub(crate) use fast::ItemTags;
+pub(crate) use fast::{ItemTags, PaddedName};
 
 /// Why a document could not be written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
