@@ -174,12 +174,22 @@ impl Entry {
         self.start() + (self.len_kind & 31) as usize
     }
 
-    /// What the item holds.
+    /// What the item holds: looked up, where a `match` would branch on every item read.
     const fn kind(self) -> Kind {
-        match self.len_kind >> 5 {
-            0 => Kind::Float,
-            1 => Kind::Int,
-            _ => Kind::Byte,
+        const KINDS: [Kind; 8] = [
+            Kind::Float,
+            Kind::Int,
+            Kind::Byte,
+            Kind::Byte,
+            Kind::Byte,
+            Kind::Byte,
+            Kind::Byte,
+            Kind::Byte,
+        ];
+        let [first, ..] = KINDS;
+        match KINDS.split_at_checked((self.len_kind >> 5) as usize) {
+            Some((_, [kind, ..])) => *kind,
+            _ => first,
         }
     }
 }

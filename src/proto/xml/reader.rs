@@ -299,9 +299,10 @@ impl<'a> Tokenizer<'a> {
     /// Where a simple element may start: inside an element, with room for one more level,
     /// after whitespace; the offset of its `<` and what follows it.
     fn simple_start(&self) -> Option<(usize, &'a [u8])> {
-        // Text is only allowed inside an element.
-        let inside = self.place == Place::Root && self.depth > 0;
-        if !self.shortcuts_on() || !inside || self.depth >= MAX_DEPTH {
+        // Text is only allowed inside an element, and an element inside another only below
+        // the deepest level: a depth of 1 to `MAX_DEPTH - 1` (an open element means the
+        // tokenizer is inside the root), tested in one comparison.
+        if !self.shortcuts_on() || self.depth.wrapping_sub(1) >= MAX_DEPTH - 1 {
             return None;
         }
         let rest = self.rest();

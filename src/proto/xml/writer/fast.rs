@@ -41,22 +41,25 @@ impl DocumentWriter<'_> {
         true
     }
 
-    /// Writes the line of item `name`, whose tags `tags` write, into a window of the
-    /// buffer checked once, with the number formatted in place between them; returns
-    /// whether the buffer had room for the window.
+    /// Writes the line of item `name` whose tags `tags` write in fixed-size pieces: tags
+    /// known where the code is compiled ([`ItemTags`], one constant copy each), a table's
+    /// padded name ([`PaddedName`], one copy of its window), or any name. Where the buffer
+    /// has room for the longest line, the line goes into a window of it checked once, the
+    /// number formatted in place between the tags; else it is appended piece by piece.
     #[inline(always)]
-    pub(super) fn window_line(
+    pub(crate) fn tagged_item(
         &mut self,
-        name: ItemName,
         tags: impl Tags,
+        name: ItemName,
         value: Number,
-    ) -> Result<bool, WriteError> {
+    ) -> Result<(), WriteError> {
+        self.open_items()?;
         let Some(window) = self
             .buf
             .get_mut(self.len..)
             .and_then(|out| out.first_chunk_mut())
         else {
-            return Ok(false);
+            return self.formatted_line(name, value);
         };
         let start = tags.open(window);
         let text = window
@@ -68,24 +71,7 @@ impl DocumentWriter<'_> {
         };
         let end = start + n.min(NUMBER_MAX);
         self.len += end + tags.close(window, end);
-        Ok(true)
-    }
-
-    /// Writes the line of item `name` whose tags `tags` write in fixed-size pieces: tags
-    /// known where the code is compiled ([`ItemTags`], one constant copy each) or a table's
-    /// padded name ([`PaddedName`], one copy of its window).
-    #[inline(always)]
-    pub(crate) fn tagged_item(
-        &mut self,
-        tags: impl Tags,
-        name: ItemName,
-        value: Number,
-    ) -> Result<(), WriteError> {
-        self.open_items()?;
-        if self.window_line(name, tags, value)? {
-            return Ok(());
-        }
-        self.formatted_line(name, value)
+        Ok(())
     }
 }
 

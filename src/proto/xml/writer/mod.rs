@@ -171,6 +171,28 @@ const HEADER_LEN: usize = {
 const LINE_TEMPLATE: [u8; ITEM_OPEN.len() + 8] =
     concat(&[ITEM_OPEN, &[0], b">", &[1], b"</", &[0], b">\n"]);
 
+/// Writes `template` at the start of `out`, each of its bytes that numbers one of `fields`
+/// (see [`HEADER_TEMPLATE`]) replaced by that field; returns the length written.
+// Out of line: one loop writes the header and every line appended, where a call for each
+// of their pieces would be repeated at every caller. It takes the buffer's rest, not the
+// writer, so that a caller's writer stays in registers across the call.
+#[inline(never)]
+fn fill(out: &mut [u8], template: &[u8], fields: &[&[u8]]) -> Result<usize, WriteError> {
+    let mut len = 0;
+    for byte in template {
+        let piece = fields
+            .get(usize::from(*byte))
+            .copied()
+            .unwrap_or(core::slice::from_ref(byte));
+        let end = len + piece.len();
+        out.get_mut(len..end)
+            .ok_or(WriteError::BufferFull)?
+            .copy_from_slice(piece);
+        len = end;
+    }
+    Ok(len)
+}
+
 /// `parts` one after the other, in an array of exactly their total length (checked when the
 /// constant is built).
 const fn concat<const N: usize>(parts: &[&[u8]]) -> [u8; N] {
@@ -261,12 +283,13 @@ impl<'a> DocumentWriter<'a> {
     /// would cost the default build a fifth of the line.
     #[inline(always)]
     pub(crate) fn number_item(&mut self, name: ItemName, value: Number) -> Result<(), WriteError> {
-        self.open_items()?;
         #[cfg(not(feature = "compact"))]
-        if self.window_line(name, name, value)? {
-            return Ok(());
+        return self.tagged_item(name, name, value);
+        #[cfg(feature = "compact")]
+        {
+            self.open_items()?;
+            self.formatted_line(name, value)
         }
-        self.formatted_line(name, value)
     }
 
     /// [`DocumentWriter::number_item`]'s line, the number formatted aside.
@@ -279,23 +302,20 @@ impl<'a> DocumentWriter<'a> {
 
     /// [`DocumentWriter::number_item`]'s line with the number's `text`, appended piece by
     /// piece.
-    // Out of line: one copy serves every item line, whichever code writes it. The number
-    // is formatted by the caller, where what kind of number it is may be known.
-    #[inline(never)]
+    #[inline(always)]
     fn text_line(&mut self, name: ItemName, text: &[u8]) -> Result<(), WriteError> {
         self.fill(&LINE_TEMPLATE, &[name.as_bytes(), text])
     }
 
     /// Appends `template`, each of its bytes that numbers one of `fields` (see
-    /// [`HEADER_TEMPLATE`]) replaced by that field.
-    // Out of line: one loop appends the header and every line, where a call for each of
-    // their pieces would be repeated at every caller.
-    #[inline(never)]
+    /// [`HEADER_TEMPLATE`]) replaced by that field. Out of line in a `compact` build, which
+    /// appends every line and its header this way.
+    #[cfg_attr(not(feature = "compact"), inline(always))]
+    #[cfg_attr(feature = "compact", inline(never))]
     fn fill(&mut self, template: &[u8], fields: &[&[u8]]) -> Result<(), WriteError> {
-        template.iter().try_for_each(|byte| {
-            let field = fields.get(usize::from(*byte)).copied();
-            self.raw(field.unwrap_or(core::slice::from_ref(byte)))
-        })
+        let rest = self.buf.get_mut(self.len..).unwrap_or_default();
+        self.len += fill(rest, template, fields)?;
+        Ok(())
     }
 
     /// Appends `bytes`. Out of line in a `compact` build, where every piece of markup goes
