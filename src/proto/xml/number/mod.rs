@@ -9,11 +9,12 @@
 //!
 //! # Exactly, and fast where it is safe
 //!
-//! Both directions are exact conversions in big-integer arithmetic ([`exact`]):
+//! Both directions are exact conversions in big-integer arithmetic (module `exact`):
 //!
-//! - Reading: the text is reduced to `n·10^e` with up to 19 significant digits in `n: u64`
-//!   (digits past the 19th, up to [`EXACT_DIGITS`], are read again only where they could
-//!   decide), and `n·10^e` is divided out to 27 bits and rounded to `f32`, half to even.
+//! - Reading: the text is reduced to `n·10^e`, `n` its first 120 significant digits (any
+//!   beyond lie below the last digit of every midpoint between floats, so whether they are
+//!   zero only breaks a tie), and `n·10^e` is divided out to 27 bits and rounded to `f32`,
+//!   half to even.
 //! - Writing: `write_f32` prints the shortest decimal that reads back as the same `f32`, and
 //!   of those the nearest (between two equally near, the larger magnitude), without exponent,
 //!   exactly as `format!("{}", x)` does. Its digits come one at a time from the float and the
@@ -22,9 +23,9 @@
 //!
 //! That is all a `compact` build has. The default build first tries approximations that
 //! settle almost every number in a few multiplications, and are exact wherever they answer
-//! ([`fast`]); the rest goes the exact way. The chosen digits (at most nine) are made at once,
-//! eight of them in one word's lanes, and the text, zeros included, is written with 8-byte
-//! stores.
+//! (module `fast`); the rest goes the exact way. The chosen digits (at most nine) are made
+//! at once, eight of them in one word's lanes, and the text, zeros included, is written
+//! with 8-byte stores.
 //!
 //! Neither direction allocates, uses `unsafe`, or can panic; all buffers are fixed-size arrays.
 

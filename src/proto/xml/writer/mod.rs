@@ -42,7 +42,7 @@ pub enum WriteError {
 /// fits the line's window.
 pub(crate) const NAME_MAX: usize = 19;
 
-/// An item's element name: ASCII, at most [`NAME_MAX`] bytes.
+/// An item's element name: ASCII, at most 19 bytes.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub struct ItemName(&'static [u8]);
 
