@@ -703,9 +703,10 @@ proptest! {
 }
 
 /// Every one of the 2^32 bit patterns against std, on all cores. About 2·10^9 finite values per
-/// sign; run by hand: `cargo test --release --test number -- --ignored`.
+/// sign; run by hand, in each build: `cargo test --release --test number -- --ignored`, and
+/// the same with `--features compact`.
 #[test]
-#[ignore = "checks all 2^32 floats; minutes in release mode"]
+#[ignore = "checks all 2^32 floats: about an hour on two cores in release mode"]
 fn exhaustive_f32_round_trip() {
     use std::fmt::Write;
     use std::sync::atomic::{AtomicU64, Ordering};

@@ -464,18 +464,18 @@ pub(crate) fn write_values(
         if present >> index & 1 == 0 {
             continue;
         }
-        let name = ItemName::from_table(table.name(entry).unwrap_or_default());
         let number = number(entry.kind(), bits, sender);
         // The default build copies the name from its table in one fixed-size piece.
         #[cfg(not(feature = "compact"))]
         if let Some(padded) = table
             .names
             .get(entry.start()..)
-            .and_then(|text| PaddedName::new(text, name.as_bytes().len()))
+            .and_then(|text| PaddedName::new(text, entry.end() - entry.start()))
         {
-            doc.tagged_item(padded, name, number)?;
+            doc.tagged_item(padded, padded.name(), number)?;
             continue;
         }
+        let name = ItemName::from_table(table.name(entry).unwrap_or_default());
         doc.number_item(name, number)?;
     }
     Ok(())

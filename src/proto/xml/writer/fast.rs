@@ -205,6 +205,14 @@ impl<'n> PaddedName<'n> {
     }
 }
 
+impl PaddedName<'static> {
+    /// The name alone.
+    #[inline(always)]
+    pub(crate) fn name(&self) -> ItemName {
+        ItemName::from_table(self.text.get(..self.len).unwrap_or_default())
+    }
+}
+
 impl Tags for PaddedName<'_> {
     #[inline(always)]
     fn open(&self, window: &mut [u8; LINE_WINDOW]) -> usize {
