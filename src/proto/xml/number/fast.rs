@@ -221,11 +221,17 @@ impl Decimal<u64> {
             return None;
         }
         let mut mantissa = 0u64;
-        let whole = body.iter().take_while(|c| c.is_ascii_digit()).count();
-        let (digits, rest) = body.split_at_checked(whole)?;
-        for &c in digits {
-            mantissa = mantissa * 10 + u64::from(c - b'0');
+        // The whole part's digits, summed in the pass that finds their end.
+        let mut whole = 0;
+        while let Some(d) = body
+            .get(whole)
+            .map(|c| c.wrapping_sub(b'0'))
+            .filter(|&d| d <= 9)
+        {
+            mantissa = mantissa * 10 + u64::from(d);
+            whole += 1;
         }
+        let rest = body.get(whole..).unwrap_or_default();
         let fraction = match rest.split_first() {
             None => &[][..],
             Some((b'.', fraction)) => fraction,
