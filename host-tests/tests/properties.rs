@@ -880,6 +880,9 @@ enum Indent {
     Tabs,
     Nothing,
     CrLfSpaces,
+    /// Runs of spaces shorter and longer than eight, split by tabs, and a space before each
+    /// line's end: what a word-at-a-time skip of spaces must step through byte-exactly.
+    Ragged,
 }
 
 /// One line of an encoded document (declaration removed): nesting depth and trimmed text.
@@ -904,6 +907,7 @@ fn render(declaration: Declaration, indent: Indent, lines: &[Line]) -> Vec<u8> {
         Indent::Nothing => ("", ""),
         Indent::CrLfSpaces => ("  ", "\r\n"),
         Indent::Robot => ("    ", "\n"),
+        Indent::Ragged => ("   \t      ", " \n"),
     };
     let mut out = String::from(declaration.text());
     if !matches!(declaration, Declaration::None) {
@@ -1227,9 +1231,10 @@ proptest! {
     #![proptest_config(cases(4096))]
 
     /// A document with another declaration (double or single quotes, a space before `?>`, a
-    /// byte-order mark, or none), re-indented as robots do, with tabs, CR LF or no whitespace
-    /// at all, with a comment inside `<Items>`, and followed by NUL bytes (a C string's
-    /// terminator counted in the frame's length), decodes to the same message.
+    /// byte-order mark, or none), re-indented as robots do, with tabs, CR LF, ragged runs of
+    /// spaces or no whitespace at all, with a comment inside `<Items>`, and followed by NUL
+    /// bytes (a C string's terminator counted in the frame's length), decodes to the same
+    /// message.
     #[test]
     fn decoders_tolerate_layout(
         message in message(),
@@ -1246,6 +1251,7 @@ proptest! {
             Just(Indent::Tabs),
             Just(Indent::Nothing),
             Just(Indent::CrLfSpaces),
+            Just(Indent::Ragged),
         ],
         comment in proptest::option::of((any::<Index>(), "[a-zA-Z0-9 <>&;'\"=/?!.\u{6ce8}\u{91ca}]{0,24}")),
         nuls in 0usize..3,

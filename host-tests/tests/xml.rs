@@ -406,3 +406,28 @@ fn tokenizer_yields_the_structure() {
         ]
     );
 }
+
+/// The shortcuts skip whitespace a run of spaces at a time; whatever the run's length
+/// (shorter or longer than the eight bytes skipped at once, or cut by a tab or the input's
+/// end), and whatever byte ends it, they read what the general path reads.
+#[test]
+fn runs_of_spaces_of_any_length_read_alike_by_both_paths() {
+    for spaces in 0..=19 {
+        let run = " ".repeat(spaces);
+        for after in ["", "\t", "\t ", "x", "\n", "\r\n"] {
+            let gap = format!("{run}{after}");
+            for document in [
+                BODY.replace("><", &format!(">{gap}<")),
+                BODY.replacen("><", &format!(">{gap}<"), 1),
+                format!("{BODY}{gap}"),
+                format!("<?xml?>{gap}{BODY}"),
+            ] {
+                assert_eq!(
+                    format!("{:?}", Response::decode(document.as_bytes())),
+                    format!("{:?}", Response::decode_general(document.as_bytes())),
+                    "{document:?}"
+                );
+            }
+        }
+    }
+}

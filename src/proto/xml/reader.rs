@@ -616,17 +616,26 @@ fn run(bytes: &[u8], classes: u8) -> usize {
     bytes.iter().take_while(|&&b| is(b, classes)).count()
 }
 
-/// Length of the whitespace at the start of `bytes`; runs of eight spaces (indentation) are
-/// skipped a word at a time.
+/// Length of the whitespace at the start of `bytes`; a run of spaces (indentation) is
+/// skipped up to eight bytes at a time.
 fn skip_spaces(bytes: &[u8]) -> usize {
+    const SPACES: u64 = u64::from_le_bytes([b' '; 8]);
     let mut at = 0;
     loop {
-        if bytes.get(at..at + 8) == Some(b"        ".as_slice()) {
-            at += 8;
-        } else if bytes.get(at).is_some_and(|&b| is(b, SPACE_BYTE)) {
-            at += 1;
-        } else {
-            return at;
+        match bytes.get(at) {
+            Some(b' ') => {
+                // A run of spaces, up to eight at a time: the first other byte is the
+                // lowest nonzero byte of the word XOR eight spaces.
+                at += match bytes.get(at..at + 8).and_then(|w| w.try_into().ok()) {
+                    Some(word) => match u64::from_le_bytes(word) ^ SPACES {
+                        0 => 8,
+                        others => (others.trailing_zeros() / 8) as usize,
+                    },
+                    None => 1,
+                };
+            }
+            Some(&b) if is(b, SPACE_BYTE) => at += 1,
+            _ => return at,
         }
     }
 }
