@@ -1,19 +1,20 @@
 #!/usr/bin/env bash
 # Builds the fuzz targets (host-tests/fuzz, a member of the host workspace in tools/) and
-# runs each with libFuzzer, on stable
-# Rust: no nightly toolchain and no cargo-fuzz needed. libfuzzer-sys compiles libFuzzer's
+# runs each with libFuzzer, on stable Rust: no nightly toolchain and no cargo-fuzz needed. libfuzzer-sys compiles libFuzzer's
 # C++ with the system C++ compiler (g++ or clang++; set CXX to choose).
 #
 #   scripts/fuzz.sh [SECONDS] [extra libFuzzer flags...]
 #
 # The targets: frame_xml (frame decoder and both message decoders on a byte stream) and
 # read_paths (the reader's layout shortcuts against its general path, the answers' writer
-# against its general path, and decode(encode(x)) == x). Each runs for SECONDS, default 30. The fuzzer works on a copy of
-# the committed seed corpus (host-tests/fuzz/corpus/<target>/, written by gen_corpus.py) in
-# a temporary directory, so the corpus only changes when someone copies an input into it on
-# purpose. Crashing inputs are written to host-tests/fuzz/artifacts/<target>/ (ignored by
-# git); the script then exits non-zero. Reproduce one with
-#   tools/target/fuzz/<host>/fuzz/<target> <artifact>
+# against its general path, and decode(encode(x)) == x). Each runs for SECONDS, default 30,
+# first against the codec as the boards build it, then against its `compact` build (the one
+# that meets the flash targets, whose reader and number text take other code). The fuzzer
+# works on a copy of the committed seed corpus (host-tests/fuzz/corpus/<target>/, written by
+# gen_corpus.py) in a temporary directory, so the corpus only changes when someone copies an
+# input into it on purpose. Crashing inputs are written to host-tests/fuzz/artifacts/<build>/<target>/
+# (ignored by git); the script then exits non-zero. Reproduce one with
+#   tools/target/fuzz-<build>/<host>/fuzz/<target> <artifact>
 set -euo pipefail
 
 DUR="${1:-30}"
@@ -35,32 +36,37 @@ export RUSTFLAGS="-Cpasses=sancov-module \
 -Cllvm-args=-sanitizer-coverage-trace-compares \
 --cfg fuzzing"
 
-# Its own target directory: the coverage flags would otherwise rebuild every dependency of
-# the host workspace's other builds, and theirs this one's.
-TARGET_DIR="$FUZZ_DIR/../../tools/target/fuzz"
-cargo build --profile fuzz -p x30-fuzz --bins --target-dir "$TARGET_DIR"
-
 HOST="$(rustc -vV | sed -n 's/^host: //p')"
 WORK="$(mktemp -d)"
 trap 'rm -rf "$WORK"' EXIT
 
-for target in frame_xml read_paths; do
-  BIN="$TARGET_DIR/$HOST/fuzz/$target"
-  ARTIFACTS="$FUZZ_DIR/artifacts/$target"
-  mkdir -p "$ARTIFACTS"
-  cp -R "corpus/$target" "$WORK/$target"
-  status=0
-  "$BIN" "$WORK/$target" \
-    -max_total_time="$DUR" \
-    -rss_limit_mb=2048 \
-    -max_len=8192 \
-    -print_final_stats=1 \
-    -dict="$FUZZ_DIR/frame_xml.dict" \
-    -artifact_prefix="$ARTIFACTS/" \
-    "$@" || status=$?
-  if [ "$status" -ne 0 ]; then
-    echo "fuzz.sh: $target stopped with status $status; crashing inputs are in $ARTIFACTS" >&2
-    exit "$status"
-  fi
-  echo "fuzz.sh: $target: no crash in ${DUR}s"
+# Each build in a target directory of its own: the coverage flags would otherwise rebuild
+# every dependency of the host workspace's other builds, and theirs this one's.
+for build in default compact; do
+  TARGET_DIR="$FUZZ_DIR/../../tools/target/fuzz-$build"
+  features=()
+  [ "$build" = compact ] && features=(--features x30-panel/compact)
+  cargo build --profile fuzz -p x30-fuzz --bins --target-dir "$TARGET_DIR" "${features[@]}"
+
+  for target in frame_xml read_paths; do
+    BIN="$TARGET_DIR/$HOST/fuzz/$target"
+    ARTIFACTS="$FUZZ_DIR/artifacts/$build/$target"
+    mkdir -p "$ARTIFACTS"
+    rm -rf "${WORK:?}/$target"
+    cp -R "corpus/$target" "$WORK/$target"
+    status=0
+    "$BIN" "$WORK/$target" \
+      -max_total_time="$DUR" \
+      -rss_limit_mb=2048 \
+      -max_len=8192 \
+      -print_final_stats=1 \
+      -dict="$FUZZ_DIR/frame_xml.dict" \
+      -artifact_prefix="$ARTIFACTS/" \
+      "$@" || status=$?
+    if [ "$status" -ne 0 ]; then
+      echo "fuzz.sh: $target ($build build) stopped with status $status; crashing inputs are in $ARTIFACTS" >&2
+      exit "$status"
+    fi
+    echo "fuzz.sh: $target ($build build): no crash in ${DUR}s"
+  done
 done
