@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds the fuzz targets (host-tests/fuzz, a member of the host workspace in tools/) and
-# runs each with libFuzzer, on stable Rust: no nightly toolchain and no cargo-fuzz needed. libfuzzer-sys compiles libFuzzer's
-# C++ with the system C++ compiler (g++ or clang++; set CXX to choose).
+# runs each with libFuzzer, on stable Rust: no nightly toolchain and no cargo-fuzz needed.
+# libfuzzer-sys compiles libFuzzer's C++ with the system C++ compiler (g++ or clang++; set
+# CXX to choose).
 #
 #   scripts/fuzz.sh [SECONDS] [extra libFuzzer flags...]
 #
@@ -12,8 +13,9 @@
 # that meets the flash targets, whose reader and number text take other code). The fuzzer
 # works on a copy of the committed seed corpus (host-tests/fuzz/corpus/<target>/, written by
 # gen_corpus.py) in a temporary directory, so the corpus only changes when someone copies an
-# input into it on purpose. Crashing inputs are written to host-tests/fuzz/artifacts/<build>/<target>/
-# (ignored by git); the script then exits non-zero. Reproduce one with
+# input into it on purpose. Crashing inputs are written to
+# host-tests/fuzz/artifacts/<build>/<target>/ (ignored by git); the script then exits
+# non-zero. Reproduce one with
 #   tools/target/fuzz-<build>/<host>/fuzz/<target> <artifact>
 set -euo pipefail
 
