@@ -1285,6 +1285,44 @@ async fn motion_is_not_written_while_answers_are_overdue() {
     );
 }
 
+/// A robot that answers the polls but no command: the zero velocity that went unanswered is
+/// given up on after 1.5 s, which does not make the robot answer. A forward held from before
+/// that until the panel gives the connection up never reaches it.
+#[tokio::test(flavor = "current_thread")]
+async fn motion_stays_held_back_after_an_unanswered_command_is_given_up_on() {
+    let sim = simulator(1.0);
+    sim.set_faults(Faults {
+        type_delays: vec![(2, StdDuration::from_secs(3600))],
+        ..Default::default()
+    });
+    let stopped_at = with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        let stopped_at = sim.elapsed().as_secs_f64();
+        click(shared, Button::Stop).await;
+        sleep(500).await;
+        press(shared, Button::Forward, true).await;
+        sleep(2500).await;
+        press(shared, Button::Forward, false).await;
+        sleep(200).await;
+        stopped_at
+    })
+    .await;
+    let log = sim.requests();
+    assert!(
+        motion(&log).iter().any(|&(t, c)| t >= stopped_at && c == 6),
+        "the zero velocity went out"
+    );
+    let forward: Vec<f64> = motion(&log)
+        .into_iter()
+        .filter(|&(t, c)| t >= stopped_at && c == 1)
+        .map(|(t, _)| t - stopped_at)
+        .collect();
+    assert!(
+        forward.is_empty(),
+        "forward reached a robot that had answered no command, at {forward:?} s"
+    );
+}
+
 #[tokio::test(flavor = "current_thread")]
 async fn estop_pressed_while_the_robot_refuses_connections_goes_out_first_when_it_is_back() {
     let sim = simulator(1.0);

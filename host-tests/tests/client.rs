@@ -486,8 +486,9 @@ async fn a_request_given_up_on_still_counts_towards_silence() {
     assert_eq!(link.outstanding(), 0);
     assert_eq!(
         link.health(given_up),
-        Health::Answering,
-        "nothing outstanding to be overdue, one give-up is not two"
+        Health::Overdue,
+        "one give-up is not two, but giving up did not make the robot answer: motion stays \
+         held back"
     );
     let deadline = link.health_deadline();
     assert!(
@@ -545,6 +546,27 @@ async fn a_request_the_robot_passes_over_is_not_overdue_once_a_later_one_is_answ
     let again = Instant::now();
     assert_eq!(link.health(again), Health::Answering);
     assert_eq!(link.health(again + ANSWER_OVERDUE), Health::Overdue);
+}
+
+#[tokio::test]
+async fn a_request_given_up_on_keeps_motion_held_back_until_the_robot_answers_again() {
+    let mut link = connected(ignoring_the_light()).await;
+    link.send(&red_light()).await.unwrap();
+    let given_up = Instant::now() + Duration::from_millis(1500);
+    assert!(link.expire(given_up, Duration::from_millis(1500)).is_some());
+    assert_eq!(link.outstanding(), 0);
+    assert_eq!(
+        link.health(given_up),
+        Health::Overdue,
+        "nothing answered since the request given up on"
+    );
+    link.send(&Request::Perception).await.unwrap();
+    assert!(link.receive().await.unwrap().result.is_ok());
+    assert_eq!(
+        link.health(Instant::now()),
+        Health::Answering,
+        "the robot answered again"
+    );
 }
 
 #[tokio::test]

@@ -62,7 +62,8 @@ pub const MAX_OUTSTANDING: usize = 16;
 pub const WRITE_TIMEOUT: Duration = Duration::from_millis(200);
 
 /// An answer not here after this long is overdue: the robot is slow or not answering, and
-/// motion is no longer written to the connection (stops still are). Only a request written
+/// motion is no longer written to the connection (stops still are), until the robot answers
+/// again: giving the request up does not make the robot answer. Only a request written
 /// after the last one answered can be overdue: one the robot passed over, answering later
 /// ones (a Type it ignores), says nothing about whether it answers now.
 pub const ANSWER_OVERDUE: Duration = Duration::from_millis(500);
@@ -113,8 +114,8 @@ pub struct Answer {
 pub enum Health {
     /// Nothing is overdue.
     Answering,
-    /// An answer has waited longer than [`ANSWER_OVERDUE`], and nothing written after its
-    /// request was answered: write no motion.
+    /// An answer has waited longer than [`ANSWER_OVERDUE`], or its request was given up on
+    /// unanswered, and nothing written after that request was answered: write no motion.
     Overdue,
     /// Nothing received for [`SILENT_AFTER`] since a request was written and not answered
     /// (still outstanding, or given up on with nothing written after it answered), or
@@ -248,7 +249,14 @@ impl<T: Transport> Connection<T> {
 
     /// Gives up on a connection whose robot went silent; the next attempt waits for the
     /// backoff, so a robot that accepts connections but never answers is not hammered.
+    ///
+    /// What was written last (the stops due, written just before) is flushed first, for at
+    /// most [`WRITE_TIMEOUT`]: the reset that closes the connection would drop it unsent, and
+    /// a robot that reads but does not answer may still act on it.
     pub async fn give_up(&mut self) -> Duration {
+        if self.connected {
+            let _ = with_timeout(WRITE_TIMEOUT, self.transport.flush()).await;
+        }
         self.disconnect().await;
         if core::mem::take(&mut self.answered) {
             self.backoff.reset();
@@ -295,9 +303,10 @@ impl<T: Transport> Connection<T> {
                 .is_some_and(|w| waited(w) >= SILENT_AFTER)
         {
             Health::Silent
-        } else if self
-            .oldest_not_passed_over()
-            .is_some_and(|oldest| waited(oldest.at) >= ANSWER_OVERDUE)
+        } else if self.timeouts_in_a_row > 0
+            || self
+                .oldest_not_passed_over()
+                .is_some_and(|oldest| waited(oldest.at) >= ANSWER_OVERDUE)
         {
             Health::Overdue
         } else {

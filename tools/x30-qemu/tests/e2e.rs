@@ -387,6 +387,38 @@ fn a_half_open_robot_gets_stops_at_once_and_the_panel_reconnects() {
         "no new connection to the silent robot\n{}",
         log_text(&sim)
     );
+    // The panel gives the robot up and reconnects every couple of seconds, writing the
+    // stops due (the e-stop repeats every 250 ms) just before each give-up. Every request
+    // written on the command connections reached the robot, those included: their message
+    // IDs, which count on across connections, run without a gap.
+    let command_conns = || {
+        let log = sim.requests();
+        let mut conns: Vec<_> = log
+            .iter()
+            .filter(|e| e.message_type == Some(2))
+            .map(|e| e.conn)
+            .collect();
+        conns.sort_unstable();
+        conns.dedup();
+        let mut ids: Vec<u16> = log
+            .iter()
+            .filter(|e| conns.contains(&e.conn))
+            .filter_map(|e| e.id)
+            .collect();
+        ids.sort_unstable();
+        (conns.len(), ids)
+    };
+    assert!(
+        eventually(Duration::from_secs(10), || command_conns().0 >= 4),
+        "three give-ups of the silent robot\n{}",
+        log_text(&sim)
+    );
+    let (_, ids) = command_conns();
+    assert!(
+        ids.windows(2).all(|pair| pair[1] == pair[0] + 1),
+        "message IDs on the command connections: {ids:?}\n{}",
+        log_text(&sim)
+    );
     panel.send("-estop");
     finish(panel);
 }
