@@ -128,9 +128,9 @@ pub struct Connection {
     decoder: Box<Decoder>,
     timeout: Duration,
     frame_buf: Vec<u8>,
-    /// Requests written and not answered yet, with their Types: which request an answer
-    /// answers is decided here (the protocol core's rule, Type 0 included).
-    outstanding: Outstanding<MessageType, MAX_OUTSTANDING>,
+    /// Requests written and not answered yet, with their Types and Commands: which request
+    /// an answer answers is decided here (the protocol core's rule, Type 0 included).
+    outstanding: Outstanding<(MessageType, i32), MAX_OUTSTANDING>,
     /// Answers (or the errors they amount to) that came for an outstanding request while
     /// another was being waited for, by the request's message ID.
     early: Vec<(u16, Result<Answer, Error>)>,
@@ -325,7 +325,10 @@ impl Connection {
         // The counter wrapped onto an ID given up on long ago: its answer is this one's now.
         self.abandoned.retain(|&id| id != message_id);
         self.early.retain(|(id, _)| *id != message_id);
-        if let Some((oldest, _)) = self.outstanding.push(message_id, request.message_type()) {
+        if let Some((oldest, _)) = self
+            .outstanding
+            .push(message_id, (request.message_type(), request.command()))
+        {
             // Too many outstanding: the oldest was given up on to make room.
             self.abandon(oldest);
         }
@@ -523,7 +526,7 @@ impl Connection {
                     message_id: id,
                     asdu_len,
                 }) if self.outstanding.contains(id) => {
-                    let ty = self.outstanding.remove(id).map_or(0, MessageType::raw);
+                    let ty = self.outstanding.remove(id).map_or(0, |(ty, _)| ty.raw());
                     (
                         id,
                         Err(Error::BadAnswer {
@@ -582,7 +585,7 @@ impl Connection {
         let d = match decoded {
             Ok(d) => d,
             Err(e) => {
-                if let Some(ty) = self.outstanding.remove(id) {
+                if let Some((ty, _)) = self.outstanding.remove(id) {
                     return Some((
                         id,
                         Err(Error::BadAnswer {
@@ -599,7 +602,9 @@ impl Connection {
             }
         };
         let got = d.message.message_type();
-        let Some((request_id, ty)) = self.outstanding.answer(id, request_error.is_some()) else {
+        let Some((request_id, (ty, command))) =
+            self.outstanding.answer(id, request_error.is_some())
+        else {
             warn(&format!(
                 "ignored an unsolicited Type {} frame with message ID {id} ({waiting_for})",
                 got.raw()
@@ -624,6 +629,17 @@ impl Connection {
                 message_type: ty.raw(),
                 message_id: id,
                 detail: format!("the answer has Type {}", got.raw()),
+            })
+        } else if d.message.command() != command {
+            // Answers echo the request's Command. A stop answered as another motion command
+            // (a forward's answer to a zero velocity) does not say the stop was done.
+            Err(Error::BadAnswer {
+                message_type: ty.raw(),
+                message_id: id,
+                detail: format!(
+                    "the answer has Command {}, not the request's {command}",
+                    d.message.command()
+                ),
             })
         } else {
             if d.unreadable != self.unreadable && !d.unreadable.is_empty() {
@@ -680,8 +696,8 @@ mod tests {
     use super::*;
     use std::net::TcpListener;
     use std::thread;
-    use x30_panel::proto::codes::RequestErrorCode;
-    use x30_panel::proto::message::{Battery, RequestError, RobotStatus};
+    use x30_panel::proto::codes::{CommandResult, MotionCommandCode, RequestErrorCode};
+    use x30_panel::proto::message::{Battery, MotionAck, MotionCommand, RequestError, RobotStatus};
 
     /// Bound on every wait in these tests.
     const LIMIT: Duration = Duration::from_secs(5);
@@ -855,6 +871,56 @@ mod tests {
         let answer = wait(&mut conn, id, MessageType::Battery);
         assert!(
             matches!(answer, Ok(Answer { response: Response::Battery(_), message_id, .. }) if message_id == id),
+            "{answer:?}"
+        );
+    }
+
+    #[test]
+    fn a_stop_answered_as_another_motion_command_is_a_bad_answer() {
+        let addr = fake_robot(2, |ids| {
+            let forward = |id| {
+                answer_frame(
+                    id,
+                    &Response::Motion(
+                        MotionCommandCode::Forward,
+                        MotionAck {
+                            value: Some(0.3),
+                            result: CommandResult::Success,
+                        },
+                    ),
+                )
+            };
+            let zero_velocity = answer_frame(
+                ids[1],
+                &Response::Motion(
+                    MotionCommandCode::ZeroVelocity,
+                    MotionAck {
+                        value: None,
+                        result: CommandResult::Success,
+                    },
+                ),
+            );
+            [forward(ids[0]), zero_velocity].concat()
+        });
+        let mut conn = connect(&addr);
+        let stop = Request::Motion(MotionCommand::ZeroVelocity);
+        let first = conn.send(&stop).expect("send");
+        let second = conn.send(&stop).expect("send");
+        let answer = wait(&mut conn, first, MessageType::Motion);
+        assert!(
+            matches!(&answer, Err(Error::BadAnswer { detail, .. }) if detail.contains("Command 1, not the request's 6")),
+            "{answer:?}"
+        );
+        // An answer with the request's own Command is the answer.
+        let answer = wait(&mut conn, second, MessageType::Motion);
+        assert!(
+            matches!(
+                answer,
+                Ok(Answer {
+                    response: Response::Motion(MotionCommandCode::ZeroVelocity, _),
+                    ..
+                })
+            ),
             "{answer:?}"
         );
     }

@@ -65,7 +65,7 @@ pub enum Error {
         message_type: i32,
     },
     /// The answer (matched by message ID) could not be decoded, or is not of the
-    /// request's Type.
+    /// request's Type, or answers another motion command than the request's.
     BadAnswer {
         /// The Type of the request.
         message_type: i32,
