@@ -128,7 +128,7 @@ pub fn run(ctx: &Ctx, args: &MoveArgs, interrupts: &Interrupts) -> Result<(), Er
     };
 
     // At once, whatever answers are still to come: they are counted after it.
-    let stopped = zero_velocity(ctx, &mut conn);
+    let stopped = zero_velocity(ctx, &mut conn, interrupts);
     if let Some(c) = conn.as_mut() {
         // A late refusal changes nothing now that the robot is stopped.
         let _ = sent.take_answers(ctx, c, Instant::now(), interrupts);
@@ -138,16 +138,19 @@ pub fn run(ctx: &Ctx, args: &MoveArgs, interrupts: &Interrupts) -> Result<(), Er
         emit(&summary(&command, duration, acknowledged, &stopped));
     }
     let stop_error = stopped.err();
+    // Ctrl-C during the move, or during the wait for zero velocity's answer.
+    let interrupted =
+        matches!(ended, Ended::Interrupted) || matches!(stop_error, Some(Error::Interrupted(_)));
     match ended {
-        Ended::Done => stop_error.map_or(Ok(()), Err),
-        Ended::Interrupted => Err(Error::Interrupted(format!(
+        Ended::Interrupted | Ended::Done if interrupted => Err(Error::Interrupted(format!(
             "move interrupted by Ctrl-C after {acknowledged} command(s); zero velocity {}",
-            if stop_error.is_none() {
-                "sent"
-            } else {
-                "NOT acknowledged"
+            match stop_error {
+                None => "sent",
+                Some(Error::Interrupted(_)) => STOP_NOT_AWAITED,
+                Some(_) => "NOT acknowledged",
             }
         ))),
+        Ended::Interrupted | Ended::Done => stop_error.map_or(Ok(()), Err),
         Ended::Failed(e) => {
             if let Some(stop_error) = stop_error {
                 note(&format!(
@@ -227,12 +230,24 @@ impl Sent {
     }
 }
 
+/// What a `move` says of its zero velocity when Ctrl-C ended the wait for its answer.
+const STOP_NOT_AWAITED: &str = "sent, its answer not awaited";
+
 /// Sends zero velocity, on `conn` if it is still usable, else (or if that fails) on a
-/// new connection, which then replaces it.
-fn zero_velocity(ctx: &Ctx, conn: &mut Option<Connection>) -> Result<(), Error> {
+/// new connection, which then replaces it. A Ctrl-C pressed after it was sent ends the
+/// wait for its answer ([`Error::Interrupted`]): it is on the wire, and whoever presses
+/// Ctrl-C again wants out.
+fn zero_velocity(
+    ctx: &Ctx,
+    conn: &mut Option<Connection>,
+    interrupts: &Interrupts,
+) -> Result<(), Error> {
     let request = Request::Motion(MotionCommand::ZeroVelocity);
+    let pressed = interrupts.count();
     let on = |conn: &mut Connection| {
-        let answer = conn.request(&request)?;
+        let answer = conn
+            .request_unless(&request, || interrupts.count() > pressed)?
+            .ok_or_else(|| Error::Interrupted(format!("zero velocity {STOP_NOT_AWAITED}")))?;
         if ctx.json {
             emit(&answer.json());
         }
@@ -244,7 +259,7 @@ fn zero_velocity(ctx: &Ctx, conn: &mut Option<Connection>) -> Result<(), Error> 
     if let Some(old) = conn.as_mut() {
         match on(old) {
             Ok(()) => return Ok(()),
-            Err(e @ Error::Failed(_)) => return Err(e),
+            Err(e @ (Error::Failed(_) | Error::Interrupted(_))) => return Err(e),
             Err(e) => note(&format!(
                 "x30ctl: zero velocity: {e}; retrying on a new connection"
             )),
@@ -272,6 +287,7 @@ fn summary(
         duration.as_secs_f64(),
         match stopped {
             Ok(()) => "acknowledged",
+            Err(Error::Interrupted(_)) => STOP_NOT_AWAITED,
             Err(_) => "FAILED",
         }
     )

@@ -589,6 +589,45 @@ fn move_ctrl_c_does_not_wait_for_a_slow_answer() {
 }
 
 #[test]
+fn ctrl_c_ends_the_wait_for_zero_velocitys_answer() {
+    // A half-open robot: it reads every request and answers none.
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        mute: true,
+        ..Faults::default()
+    });
+    let moving = spawn(
+        &sim,
+        &[
+            "--timeout-ms",
+            "10000",
+            "move",
+            "forward",
+            "--duration",
+            "1",
+        ],
+    );
+    wait_for("zero velocity", Duration::from_secs(10), || {
+        !requests_of(&sim, 2, Some(6)).is_empty()
+    });
+    let interrupted = std::time::Instant::now();
+    moving.interrupt();
+    let run = moving.finish(RUN_LIMIT);
+    // Without the Ctrl-C, the wait would last the 10 s timeout, then as long again on a
+    // new connection.
+    run.expect_code(130).stderr_has(
+        "move interrupted by Ctrl-C after 0 command(s); zero velocity sent, its answer not \
+         awaited",
+    );
+    assert!(interrupted.elapsed() < Duration::from_secs(4));
+    assert_eq!(
+        requests_of(&sim, 2, Some(6)).len(),
+        1,
+        "no second zero velocity on a new connection"
+    );
+}
+
+#[test]
 fn move_stops_on_time_and_drives_no_further_while_the_robot_answers_late() {
     let sim = sim(1.0);
     sim.set_faults(Faults {
