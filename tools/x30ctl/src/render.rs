@@ -294,10 +294,10 @@ fn status_text(s: &RobotStatus) -> String {
         .row(
             "map image",
             format_args!(
-                "{} m/px, bottom-left corner at x {} m, y {} m, {} high",
-                s.res,
-                s.x0,
-                s.y0,
+                "{}, bottom-left corner at x {}, y {}, {} high",
+                reading(s.res, "m/px"),
+                reading(s.x0, "m"),
+                reading(s.y0, "m"),
                 reported_int(s.h, " px")
             ),
         )
@@ -632,6 +632,35 @@ mod tests {
         for value in [f32::NAN, -f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
             assert_eq!(reading(value, "rad"), "unknown", "{value}");
         }
+    }
+
+    #[test]
+    fn a_map_image_the_robot_does_not_report_reads_unknown() {
+        let reported = RobotStatus {
+            motion_state: MotionState::ForceControlStand,
+            res: 0.05,
+            x0: -25.6,
+            y0: -18.35,
+            ..RobotStatus::UNAVAILABLE
+        };
+        assert!(
+            status_text(&reported)
+                .contains("0.05 m/px, bottom-left corner at x -25.6 m, y -18.35 m, 0 px high"),
+            "{}",
+            status_text(&reported)
+        );
+        let left_out = RobotStatus {
+            res: f32::NAN,
+            x0: f32::NAN,
+            y0: f32::NAN,
+            ..reported
+        };
+        assert!(
+            status_text(&left_out)
+                .contains("unknown, bottom-left corner at x unknown, y unknown, 0 px high"),
+            "{}",
+            status_text(&left_out)
+        );
     }
 
     #[test]
