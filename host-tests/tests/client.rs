@@ -93,6 +93,44 @@ async fn an_empty_frame_is_no_answer_whatever_its_message_id() {
     assert_eq!((anomalies.empty_frames, anomalies.unsolicited), (1, 0));
 }
 
+/// Frames that carry the request's message ID but not its Type, or (a motion command) not
+/// its Command, are no answer to it: a navigation task's wait must not end on a robot's own
+/// report that reuses the ID. The answer after them is the request's.
+#[tokio::test]
+async fn a_frame_of_another_type_or_command_with_the_requests_id_is_no_answer() {
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        let (perception_id, _) = read_request(&mut s, &mut d).unwrap();
+        let (stop_id, _) = read_request(&mut s, &mut d).unwrap();
+        let mut bytes = answer(
+            perception_id,
+            &Response::NavStatus(NavTaskState {
+                value: 1,
+                status: NavTaskStatus::Running,
+                error_code: NavTaskStatus::Running,
+            }),
+        );
+        bytes.extend(answer(stop_id, &ack(MotionCommand::SoftEmergencyStop)));
+        bytes.extend(answer(perception_id, &perception()));
+        bytes.extend(answer(stop_id, &ack(MotionCommand::ZeroVelocity)));
+        s.write_all(&bytes).unwrap();
+        thread::sleep(std::time::Duration::from_millis(200));
+    });
+    let mut link = connected(addr).await;
+    let perception_id = link.send(&Request::Perception).await.unwrap();
+    let stop_id = link
+        .send(&Request::Motion(MotionCommand::ZeroVelocity))
+        .await
+        .unwrap();
+    let first = link.receive().await.unwrap();
+    assert_eq!(first.message_id, perception_id);
+    assert_eq!(first.result, Ok(perception()));
+    let second = link.receive().await.unwrap();
+    assert_eq!(second.message_id, stop_id);
+    assert_eq!(second.result, Ok(ack(MotionCommand::ZeroVelocity)));
+    assert_eq!(link.anomalies().unsolicited, 2);
+}
+
 #[tokio::test]
 async fn message_ids_count_up_per_request() {
     let addr = peer(|mut s| {

@@ -92,3 +92,13 @@ fn contains_len_and_clear() {
     assert!(!o.contains(7) && !o.contains(8));
     assert_eq!(o.answer(7, true), None, "nothing outstanding after a clear");
 }
+
+#[test]
+fn get_looks_a_request_up_without_taking_it_out() {
+    let mut o = three();
+    assert_eq!(o.get(11), Some(&"b"));
+    assert_eq!(o.get(99), None);
+    assert_eq!(o.len(), 3, "nothing taken out");
+    assert_eq!(o.answer(11, false), Some((11, "b")));
+    assert_eq!(o.get(11), None, "answered");
+}

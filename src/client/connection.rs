@@ -40,7 +40,8 @@ pub trait Transport: Read + Write {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Anomalies {
-    /// Frames whose message ID matched no outstanding request (late or unsolicited answers).
+    /// Frames that answered no outstanding request: late or unsolicited answers, and
+    /// frames with a request's message ID but not its Type or Command.
     pub unsolicited: u32,
     /// Stream errors the frame decoder skipped past: garbage, bad headers, oversized frames.
     pub stream_errors: u32,
@@ -103,8 +104,8 @@ pub struct Answer {
     pub message_id: u16,
     /// The request it answers.
     pub request: Sent,
-    /// The answer, or why it is no usable answer (Type 0, another Type, undecodable); the
-    /// connection stays usable either way.
+    /// The answer, or why it is no usable answer (Type 0, an unknown Type, undecodable);
+    /// the connection stays usable either way.
     pub result: Result<Response, ClientError>,
 }
 
@@ -522,9 +523,20 @@ impl<T: Transport> Connection<T> {
                     ..
                 })
             );
-            let Some((message_id, request)) =
-                self.outstanding.answer(frame.message_id, request_error)
-            else {
+            // A frame with a request's message ID but another Type or Command is no answer
+            // to it (a robot's own report that reuses the ID, say): taken for one, it would
+            // end a navigation task's wait, and the task with the connection.
+            let echoes = |sent: &Sent| match &decoded {
+                Ok(decoded) if !request_error => {
+                    decoded.message.echoes(sent.message_type, sent.command)
+                }
+                _ => true,
+            };
+            let answered = match self.outstanding.get(frame.message_id) {
+                Some(sent) if !echoes(sent) => None,
+                _ => self.outstanding.answer(frame.message_id, request_error),
+            };
+            let Some((message_id, request)) = answered else {
                 if let Some(count) = count_one(&mut self.anomalies.unsolicited) {
                     warn!(
                         "skipped a frame for message {} ({} so far)",
@@ -549,7 +561,12 @@ impl<T: Transport> Connection<T> {
                         );
                     }
                     self.clock.learn(decoded.time, Instant::now());
-                    check_type(request.message_type, decoded.message)
+                    match decoded.message {
+                        Response::RequestError(error) => {
+                            Err(ClientError::RequestError(error.code))
+                        }
+                        answer => Ok(answer),
+                    }
                 }
                 Err(DecodeError::UnknownType(t)) => Err(ClientError::UnknownType(t)),
                 Err(other) => Err(ClientError::Decode(other)),
@@ -679,15 +696,6 @@ impl<T: Transport> Connection<T> {
             Response::NavResult(result) => Ok(result),
             other => Err(unexpected(MessageType::NavTask, &other)),
         }
-    }
-}
-
-/// The answer as a result: Type 0 and answers of another Type than the request are errors.
-fn check_type(expected: MessageType, answer: Response) -> Result<Response, ClientError> {
-    match answer {
-        Response::RequestError(error) => Err(ClientError::RequestError(error.code)),
-        _ if answer.message_type() != expected => Err(unexpected(expected, &answer)),
-        _ => Ok(answer),
     }
 }
 

@@ -58,7 +58,9 @@ pub enum ClientError {
     UnknownType(i32),
     /// The answer's body could not be decoded. The connection stays open.
     Decode(DecodeError),
-    /// The answer is of another Type than the request. The connection stays open.
+    /// The answer is of another Type than the request. [`Connection`] passes such frames
+    /// over as no answer, so only a caller holding an answer it did not expect makes this.
+    /// The connection stays open.
     UnexpectedAnswer {
         /// The request's Type.
         expected: MessageType,

@@ -74,6 +74,12 @@ impl<T, const N: usize> Outstanding<T, N> {
         (!self.requests.is_empty()).then(|| self.requests.remove(0))
     }
 
+    /// What was remembered of the request with `message_id`, if it is outstanding.
+    pub fn get(&self, message_id: u16) -> Option<&T> {
+        let at = self.position(message_id)?;
+        self.requests.get(at).map(|(_, request)| request)
+    }
+
     /// Whether a request with `message_id` is outstanding.
     pub fn contains(&self, message_id: u16) -> bool {
         self.position(message_id).is_some()

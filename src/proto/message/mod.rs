@@ -483,6 +483,13 @@ impl Response {
         }
     }
 
+    /// Whether this echoes a request's Type and, for a motion command, its Command (the one
+    /// Command an answer keeps), as its answer must: a frame with the request's message ID
+    /// that does not is no answer to it.
+    pub fn echoes(&self, message_type: MessageType, command: i32) -> bool {
+        self.message_type() == message_type && self.command() == command
+    }
+
     /// Writes the XML body into `out`; returns its length.
     pub fn encode(&self, time: &Timestamp, out: &mut [u8]) -> Result<usize, WriteError> {
         self.encode_as(time, out, Writing::BUILD)

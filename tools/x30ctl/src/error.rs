@@ -64,8 +64,7 @@ pub enum Error {
         /// The Type of the request it refused.
         message_type: i32,
     },
-    /// The answer (matched by message ID) could not be decoded, or is not of the
-    /// request's Type, or answers another motion command than the request's.
+    /// The answer (matched by message ID) could not be decoded, or was too long to read.
     BadAnswer {
         /// The Type of the request.
         message_type: i32,
