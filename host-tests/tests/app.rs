@@ -1299,7 +1299,9 @@ async fn motion_stays_held_back_after_an_unanswered_command_is_given_up_on() {
         wait_connected(&sim).await;
         let stopped_at = sim.elapsed().as_secs_f64();
         click(shared, Button::Stop).await;
-        sleep(500).await;
+        // Pressed once the zero velocity's answer is well overdue (ANSWER_OVERDUE, 500 ms):
+        // before that, one forward may go out by the rule.
+        sleep(800).await;
         press(shared, Button::Forward, true).await;
         sleep(2500).await;
         press(shared, Button::Forward, false).await;
@@ -1459,6 +1461,34 @@ async fn stop_during_a_navigation_task_sends_1004_and_zero_velocity() {
     .await;
     let last = sim.snapshot().last_task.expect("the task ended");
     assert_eq!(last.status.raw(), 8962, "cancelled: {last:?}");
+}
+
+/// A robot fails a running task in soft e-stop; one that did not would walk on once the
+/// e-stop is released. The e-stop ends the panel's task as `stop` does: a 1004 goes out
+/// right after the e-stop.
+#[tokio::test(flavor = "current_thread")]
+async fn estop_during_a_navigation_task_cancels_the_task_after_the_estop() {
+    let sim = simulator(1.0);
+    far_from_dock(&sim);
+    with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        click(shared, Button::Dock).await;
+        assert!(
+            wait_for_log(&sim, 2000, |l| polls(l, 1003) == 1).await,
+            "dock sends a 1003"
+        );
+        sleep(300).await;
+        let pressed = sim.elapsed().as_secs_f64();
+        press(shared, Button::Estop, true).await;
+        let estop = wait_for_command(&sim, 2000, pressed, 13).await;
+        let cancel = wait_for_type(&sim, 2000, pressed, 1004).await;
+        assert!(
+            matches!((estop, cancel), (Some(e), Some(c)) if e <= c && c - pressed < STOP_BOUND),
+            "e-stop at {estop:?}, then the 1004 at {cancel:?}"
+        );
+        press(shared, Button::Estop, false).await;
+    })
+    .await;
 }
 
 #[tokio::test(flavor = "current_thread")]

@@ -286,7 +286,7 @@ impl Control {
         } = event;
         if button == Button::Estop {
             if pressed {
-                self.press_estop();
+                self.press_estop(at);
             } else {
                 self.estop.held = false;
                 self.check_unlock();
@@ -604,7 +604,7 @@ impl Control {
     }
 
     /// E-stop pressed: latch, and drop everything that would move the robot.
-    fn press_estop(&mut self) {
+    fn press_estop(&mut self, at: Instant) {
         info!("estop: latched until the robot confirms");
         self.estop = Estop {
             held: true,
@@ -615,11 +615,10 @@ impl Control {
         };
         self.end_motion();
         self.one_shots.clear();
-        // A running point is left to the robot, which fails it in soft e-stop.
-        self.patrol = None;
-        if matches!(self.task, Task::Ordered { .. }) {
-            self.task = Task::Idle;
-        }
+        // The robot fails a running task in soft e-stop (ErrorStatus 41729); one that kept
+        // it would drive on once the e-stop is released. So the task is ended as `stop` ends
+        // it: cancelled after the e-stop, and its connection closed if it runs on.
+        self.end_task(at);
     }
 
     /// Releases the e-stop lock-out once the button is up and the robot confirmed the stop
