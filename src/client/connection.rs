@@ -562,9 +562,7 @@ impl<T: Transport> Connection<T> {
                     }
                     self.clock.learn(decoded.time, Instant::now());
                     match decoded.message {
-                        Response::RequestError(error) => {
-                            Err(ClientError::RequestError(error.code))
-                        }
+                        Response::RequestError(error) => Err(ClientError::RequestError(error.code)),
                         answer => Ok(answer),
                     }
                 }
