@@ -412,7 +412,7 @@ impl App<'_> {
             let deadline = [
                 self.panel(|p| p.command_deadline()),
                 conn.expiry(REQUEST_TIMEOUT),
-                conn.health_deadline(),
+                conn.health_deadline(now),
             ]
             .into_iter()
             .flatten()

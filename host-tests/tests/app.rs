@@ -1143,6 +1143,47 @@ async fn a_command_the_robot_never_answers_does_not_hold_up_motion() {
     assert_eq!(connections.len(), 1, "the command connection is kept");
 }
 
+/// The same robot, with forward pressed after the light: held back while the light's answer
+/// is overdue, the forward goes out once that request is given up on (a Type the robot
+/// ignores says nothing of motion), and the connection is kept.
+#[tokio::test(flavor = "current_thread")]
+async fn motion_pressed_after_an_ignored_light_goes_out_once_the_light_is_given_up_on() {
+    let sim = simulator(1.0);
+    sim.set_faults(Faults {
+        type_delays: vec![(1101, StdDuration::from_secs(3600))],
+        ..Default::default()
+    });
+    let light_at = with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        let light_at = sim.elapsed().as_secs_f64();
+        click(shared, Button::Light).await;
+        sleep(700).await;
+        press(shared, Button::Forward, true).await;
+        sleep(2300).await;
+        press(shared, Button::Forward, false).await;
+        sleep(200).await;
+        light_at
+    })
+    .await;
+    let log = sim.requests();
+    let forward: Vec<f64> = motion(&log)
+        .into_iter()
+        .filter(|&(t, c)| t >= light_at && c == 1)
+        .map(|(t, _)| t - light_at)
+        .collect();
+    // Given up on at 1.5 s; from then to the release at 3.0 s, about six repeats at 4 Hz.
+    assert!(
+        forward.iter().filter(|&&t| t > 1.4).count() >= 4,
+        "forward after the light was given up on: {forward:?} s"
+    );
+    let connections: std::collections::BTreeSet<_> = log
+        .iter()
+        .filter(|e| e.message_type == Some(2))
+        .map(|e| e.conn)
+        .collect();
+    assert_eq!(connections.len(), 1, "the command connection is kept");
+}
+
 /// A stricter `robot_server` hangs up on a Type it does not know. The poll lost with the
 /// connection goes first on the next one only once; lost again, it backs off like an
 /// unanswered one, instead of being the only thing ever asked.

@@ -490,6 +490,12 @@ async fn a_robot_that_stops_answering_is_overdue_then_silent() {
         Health::Overdue,
         "an answer older than ANSWER_OVERDUE is overdue"
     );
+    let overdue = sent + ANSWER_OVERDUE;
+    assert!(
+        link.health_deadline(overdue).is_some_and(|d| d > overdue),
+        "once overdue, the next change is silence, not a deadline already passed (a loop \
+         sleeping until it would spin)"
+    );
     assert_eq!(
         link.health(sent + SILENT_AFTER),
         Health::Silent,
@@ -524,11 +530,11 @@ async fn a_request_given_up_on_still_counts_towards_silence() {
     assert_eq!(link.outstanding(), 0);
     assert_eq!(
         link.health(given_up),
-        Health::Overdue,
-        "one give-up is not two, but giving up did not make the robot answer: motion stays \
-         held back"
+        Health::Answering,
+        "nothing outstanding to be overdue, a status says nothing of motion, and one give-up \
+         is not two"
     );
-    let deadline = link.health_deadline();
+    let deadline = link.health_deadline(given_up);
     assert!(
         deadline.is_some_and(|d| (before + SILENT_AFTER..=sent + SILENT_AFTER).contains(&d)),
         "the silence clock keeps running from the send after the give-up: {deadline:?}"
@@ -586,18 +592,54 @@ async fn a_request_the_robot_passes_over_is_not_overdue_once_a_later_one_is_answ
     assert_eq!(link.health(again + ANSWER_OVERDUE), Health::Overdue);
 }
 
+/// A robot that answers everything but motion commands, and sends a keep-alive (a frame
+/// with no body) every 50 ms.
+fn ignoring_motion() -> std::net::SocketAddr {
+    peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        let mut keep_alive = vec![0u8; frame::HEADER_LEN];
+        frame::encode(&mut keep_alive, 0, &[]).unwrap();
+        let mut w = s.try_clone().unwrap();
+        thread::spawn(move || {
+            for _ in 0..100 {
+                if w.write_all(&keep_alive).is_err() {
+                    return;
+                }
+                thread::sleep(std::time::Duration::from_millis(50));
+            }
+        });
+        while let Some((id, request)) = read_request(&mut s, &mut d) {
+            if !matches!(request, Request::Motion(_)) {
+                s.write_all(&answer(id, &perception())).unwrap();
+            }
+        }
+    })
+}
+
+/// Reads for `ms` milliseconds whatever comes (keep-alives), answering nothing.
+async fn listen(link: &mut Connection<TokioTransport>, ms: u64) {
+    let _ = tokio::time::timeout(std::time::Duration::from_millis(ms), link.receive()).await;
+}
+
 #[tokio::test]
-async fn a_request_given_up_on_keeps_motion_held_back_until_the_robot_answers_again() {
-    let mut link = connected(ignoring_the_light()).await;
-    link.send(&red_light()).await.unwrap();
+async fn a_motion_command_given_up_on_keeps_motion_held_back_until_the_robot_answers_again() {
+    let mut link = connected(ignoring_motion()).await;
+    link.send(&Request::Motion(MotionCommand::ZeroVelocity))
+        .await
+        .unwrap();
     let given_up = Instant::now() + Duration::from_millis(1500);
     assert!(link.expire(given_up, Duration::from_millis(1500)).is_some());
     assert_eq!(link.outstanding(), 0);
     assert_eq!(
         link.health(given_up),
         Health::Overdue,
-        "nothing answered since the request given up on"
+        "nothing answered since the motion command given up on"
     );
+    // Keep-alives are no answer: they do not hold the silence off.
+    let silent_at = link.health_deadline(given_up);
+    listen(&mut link, 300).await;
+    assert!(link.anomalies().empty_frames > 0, "keep-alives came");
+    assert_eq!(link.health_deadline(given_up), silent_at);
     link.send(&Request::Perception).await.unwrap();
     assert!(link.receive().await.unwrap().result.is_ok());
     assert_eq!(
@@ -605,6 +647,17 @@ async fn a_request_given_up_on_keeps_motion_held_back_until_the_robot_answers_ag
         Health::Answering,
         "the robot answered again"
     );
+}
+
+/// An older `robot_server` ignores the light's Type: giving that request up says nothing of
+/// whether the robot acts on motion.
+#[tokio::test]
+async fn a_light_given_up_on_does_not_hold_motion_back() {
+    let mut link = connected(ignoring_the_light()).await;
+    link.send(&red_light()).await.unwrap();
+    let given_up = Instant::now() + Duration::from_millis(1500);
+    assert!(link.expire(given_up, Duration::from_millis(1500)).is_some());
+    assert_eq!(link.health(given_up), Health::Answering);
 }
 
 #[tokio::test]
@@ -621,7 +674,7 @@ async fn giving_up_on_a_request_the_robot_passed_over_says_nothing_of_silence() 
     while link.expire(late, Duration::from_millis(1500)).is_some() {}
     assert_eq!(link.outstanding(), 0);
     assert_eq!(
-        link.health_deadline(),
+        link.health_deadline(late),
         None,
         "nothing outstanding, nothing to time"
     );

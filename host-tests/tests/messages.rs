@@ -1465,3 +1465,29 @@ fn byte_items_out_of_range_are_refused_by_both_paths() {
         }
     }
 }
+
+#[test]
+fn an_answer_echoes_its_requests_type_and_a_motion_commands_command() {
+    let zero_velocity = Request::Motion(MotionCommand::ZeroVelocity);
+    let ack = |code| {
+        Response::Motion(
+            code,
+            MotionAck {
+                value: None,
+                result: CommandResult::Success,
+            },
+        )
+    };
+    let echoes = |answer: &Response, request: &Request| {
+        answer.echoes(request.message_type(), request.command())
+    };
+    assert!(echoes(
+        &ack(MotionCommandCode::ZeroVelocity),
+        &zero_velocity
+    ));
+    assert!(!echoes(&ack(MotionCommandCode::Forward), &zero_velocity));
+    let status = Response::Status(RobotStatus::UNAVAILABLE);
+    assert!(echoes(&status, &Request::Status));
+    assert!(!echoes(&status, &Request::Battery));
+    assert!(!echoes(&status, &zero_velocity));
+}

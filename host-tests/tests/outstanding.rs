@@ -102,3 +102,17 @@ fn get_looks_a_request_up_without_taking_it_out() {
     assert_eq!(o.answer(11, false), Some((11, "b")));
     assert_eq!(o.get(11), None, "answered");
 }
+
+#[test]
+fn a_frame_that_does_not_echo_its_request_answers_nothing_but_type_0_still_does() {
+    let mut o = three();
+    assert_eq!(o.answer_if(11, false, |&r| r == "x"), None);
+    assert!(o.contains(11), "still waiting for its answer");
+    assert_eq!(o.answer_if(11, false, |&r| r == "b"), Some((11, "b")));
+    assert_eq!(o.answer_if(12, true, |_| false), Some((12, "c")), "Type 0");
+    assert_eq!(
+        o.answer_if(99, true, |_| false),
+        Some((10, "a")),
+        "Type 0, oldest"
+    );
+}

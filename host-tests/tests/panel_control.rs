@@ -1175,6 +1175,23 @@ fn patrol_is_ended_by_stop_cancel_a_motion_press_or_an_estop() {
     assert_eq!(c.take_task(at(1200)), None);
 }
 
+/// An e-stop while the command connection is down: no 1004 is kept to go stale (and blink
+/// the fault LED for a cancel nobody pressed); the task is over for the panel, whose
+/// navigation connection then closes, which stops the task.
+#[test]
+fn an_estop_during_an_outage_ends_the_task_without_a_cancel_going_stale() {
+    let mut c = connected_with(&with_route());
+    c.press(Button::Patrol, 0);
+    let first = start(&mut c, 0);
+    c.connection(ConnectionState::Connecting);
+    c.press(Button::Estop, 1000);
+    assert!(!c.task_running(first.id));
+    assert!(!c.patrolling());
+    c.connection(ConnectionState::Open);
+    assert_eq!(drain(&mut c, at(2000)), [ESTOP]);
+    assert!(!c.last_failed(), "no fault blink");
+}
+
 #[test]
 fn patrol_without_a_route_or_while_locked_only_blinks() {
     let mut c = connected();

@@ -63,10 +63,11 @@ pub const MAX_OUTSTANDING: usize = 16;
 pub const WRITE_TIMEOUT: Duration = Duration::from_millis(200);
 
 /// An answer not here after this long is overdue: the robot is slow or not answering, and
-/// motion is no longer written to the connection (stops still are), until the robot answers
-/// again: giving the request up does not make the robot answer. Only a request written
-/// after the last one answered can be overdue: one the robot passed over, answering later
-/// ones (a Type it ignores), says nothing about whether it answers now.
+/// motion is no longer written to the connection (stops still are). A motion command given
+/// up on unanswered keeps it so until the robot answers again: giving the request up does
+/// not make the robot answer. Only a request written after the last one answered can be
+/// overdue: one the robot passed over, answering later ones (a Type it ignores), says
+/// nothing about whether it answers now.
 pub const ANSWER_OVERDUE: Duration = Duration::from_millis(500);
 
 /// How long the poll connection must have been open, with the robot answering on it, to be
@@ -78,7 +79,8 @@ pub const STABLE_AFTER: Duration = Duration::from_secs(1);
 /// The robot is silent, and the connection given up on, when nothing is received for this long
 /// after a request it has not answered: one still outstanding, or one given up on (a robot
 /// that ignored it has said nothing since) unless the robot answered a request written after
-/// it.
+/// it. Once a request was given up on, only an answer counts as received, not keep-alives
+/// or unsolicited frames.
 pub const SILENT_AFTER: Duration = Duration::from_secs(2);
 
 /// This many requests given up on in a row also make the robot silent.
@@ -115,8 +117,9 @@ pub struct Answer {
 pub enum Health {
     /// Nothing is overdue.
     Answering,
-    /// An answer has waited longer than [`ANSWER_OVERDUE`], or its request was given up on
-    /// unanswered, and nothing written after that request was answered: write no motion.
+    /// An answer has waited longer than [`ANSWER_OVERDUE`], or a motion command was given
+    /// up on unanswered, and nothing written after that request was answered: write no
+    /// motion.
     Overdue,
     /// Nothing received for [`SILENT_AFTER`] since a request was written and not answered
     /// (still outstanding, or given up on with nothing written after it answered), or
@@ -150,6 +153,11 @@ pub struct Connection<T: Transport> {
     waiting_since: Option<Instant>,
     /// Requests given up on since the last answer, those passed over aside.
     timeouts_in_a_row: u8,
+    /// Whether a motion command was given up on unanswered and nothing was answered since:
+    /// the robot does not answer motion now, and giving the request up changed nothing.
+    /// (Another Type given up on says less: an older `robot_server` ignores some Types and
+    /// answers the rest.)
+    motion_unanswered: bool,
     /// When the latest-written request answered on this connection was written.
     answered_up_to: Option<Instant>,
     /// Whether the robot has answered on this connection since it opened: only then does
@@ -178,6 +186,7 @@ impl<T: Transport> Connection<T> {
             outstanding: Outstanding::new(),
             waiting_since: None,
             timeouts_in_a_row: 0,
+            motion_unanswered: false,
             answered_up_to: None,
             answered: false,
             opened_at: Instant::from_ticks(0),
@@ -244,6 +253,7 @@ impl<T: Transport> Connection<T> {
         self.rx.clear();
         self.outstanding.clear();
         self.timeouts_in_a_row = 0;
+        self.motion_unanswered = false;
         self.waiting_since = None;
         self.answered_up_to = None;
     }
@@ -304,7 +314,7 @@ impl<T: Transport> Connection<T> {
                 .is_some_and(|w| waited(w) >= SILENT_AFTER)
         {
             Health::Silent
-        } else if self.timeouts_in_a_row > 0
+        } else if self.motion_unanswered
             || self
                 .oldest_not_passed_over()
                 .is_some_and(|oldest| waited(oldest.at) >= ANSWER_OVERDUE)
@@ -315,11 +325,13 @@ impl<T: Transport> Connection<T> {
         }
     }
 
-    /// When [`Connection::health`] may next change without anything received.
-    pub fn health_deadline(&self) -> Option<Instant> {
+    /// When [`Connection::health`] may next change, after `now`, without anything received.
+    /// A deadline already passed is left out: a loop that sleeps until it would spin.
+    pub fn health_deadline(&self, now: Instant) -> Option<Instant> {
         let overdue = self
             .oldest_not_passed_over()
-            .map(|oldest| oldest.at.saturating_add(ANSWER_OVERDUE));
+            .map(|oldest| oldest.at.saturating_add(ANSWER_OVERDUE))
+            .filter(|&at| at > now);
         let silent = self.waiting_since.map(|w| w.saturating_add(SILENT_AFTER));
         overdue.into_iter().chain(silent).min()
     }
@@ -361,6 +373,7 @@ impl<T: Transport> Connection<T> {
             }
         } else {
             self.timeouts_in_a_row = self.timeouts_in_a_row.saturating_add(1);
+            self.motion_unanswered |= sent.message_type == MessageType::Motion;
         }
         Some(sent)
     }
@@ -460,8 +473,10 @@ impl<T: Transport> Connection<T> {
             };
             match n {
                 Ok(n) => {
-                    // Any bytes show the robot alive, even the start of a large answer.
-                    if self.waiting_since.is_some() {
+                    // Any bytes show the robot alive, even the start of a large answer; but
+                    // once a request was given up on unanswered, only an answer does: a
+                    // robot that sends keep-alives and answers nothing is silent all the same.
+                    if self.waiting_since.is_some() && self.timeouts_in_a_row == 0 {
                         self.waiting_since = Some(Instant::now());
                     }
                     self.rx.commit(n);
@@ -526,17 +541,15 @@ impl<T: Transport> Connection<T> {
             // A frame with a request's message ID but another Type or Command is no answer
             // to it (a robot's own report that reuses the ID, say): taken for one, it would
             // end a navigation task's wait, and the task with the connection.
+            // (One of a Type unknown here is that answer's error, as documented.)
             let echoes = |sent: &Sent| match &decoded {
-                Ok(decoded) if !request_error => {
-                    decoded.message.echoes(sent.message_type, sent.command)
-                }
-                _ => true,
+                Ok(decoded) => decoded.message.echoes(sent.message_type, sent.command),
+                Err(_) => true,
             };
-            let answered = match self.outstanding.get(frame.message_id) {
-                Some(sent) if !echoes(sent) => None,
-                _ => self.outstanding.answer(frame.message_id, request_error),
-            };
-            let Some((message_id, request)) = answered else {
+            let Some((message_id, request)) =
+                self.outstanding
+                    .answer_if(frame.message_id, request_error, echoes)
+            else {
                 if let Some(count) = count_one(&mut self.anomalies.unsolicited) {
                     warn!(
                         "skipped a frame for message {} ({} so far)",
@@ -546,6 +559,7 @@ impl<T: Transport> Connection<T> {
                 continue;
             };
             self.timeouts_in_a_row = 0;
+            self.motion_unanswered = false;
             self.waiting_since = (!self.outstanding.is_empty()).then(Instant::now);
             self.answered = true;
             self.answered_up_to = self.answered_up_to.max(Some(request.at));

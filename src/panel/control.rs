@@ -27,13 +27,15 @@
 //!   blinks; it is never sent later. A navigation task cancelled or overridden before its
 //!   1003 went out is not sent.
 //! - **Navigation.** `stop` ends a running task with a 1004 as well as zero velocity (the
-//!   robot refuses motion during a task); a motion press cancels it first; `dock` without a
-//!   configured charging point does nothing but blink the fault LED.
+//!   robot refuses motion during a task); a motion press cancels it first, and so does the
+//!   e-stop, after its Command 13; `dock` without a configured charging point does nothing
+//!   but blink the fault LED.
 //! - **Patrol.** `patrol` walks the saved route: a 1003 per point, the next one as soon as
 //!   the robot reports the previous reached. Every stop rule holds: a motion press, `stop`
-//!   or `cancel` ends it with a 1004, an e-stop ends it (the robot fails the running point),
-//!   a failed, cancelled or lost point ends it with a fault blink, and it never resumes by
-//!   itself after an outage. Without a route it only blinks the fault LED.
+//!   or `cancel` ends it with a 1004, an e-stop ends it (with a 1004 after the e-stop, though
+//!   the robot fails the running point itself), a failed, cancelled or lost point ends it
+//!   with a fault blink, and it never resumes by itself after an outage. Without a route it
+//!   only blinks the fault LED.
 //! - **Gait** cycles from the robot's reported `GaitState`, not from a local counter.
 
 use embassy_time::{Duration, Instant};
@@ -615,10 +617,15 @@ impl Control {
         };
         self.end_motion();
         self.one_shots.clear();
-        // The robot fails a running task in soft e-stop (ErrorStatus 41729); one that kept
+        // The robot fails a running task in soft e-stop (ErrorStatus 41766); one that kept
         // it would drive on once the e-stop is released. So the task is ended as `stop` ends
-        // it: cancelled after the e-stop, and its connection closed if it runs on.
+        // it: cancelled after the e-stop, and its connection closed if it runs on. While the
+        // command connection is down the 1004 would only go stale (and blink the fault LED
+        // for a cancel nobody pressed): closing the task's connection stops the task then.
         self.end_task(at);
+        if !self.connected {
+            self.cancel = None;
+        }
     }
 
     /// Releases the e-stop lock-out once the button is up and the robot confirmed the stop

@@ -490,10 +490,10 @@ impl Connection {
     /// Takes frames out of the decoder until the answer to the request with `message_id`
     /// turns up (`Some`: the answer, or the error it amounts to) or more bytes are needed.
     ///
-    /// Which request a frame answers is decided by [`Outstanding::answer`]: the request
-    /// with the frame's message ID, or, for a Type 0 answer whose ID matches none, the
-    /// oldest outstanding request. Answers to other outstanding requests are kept in
-    /// `early`.
+    /// Which request a frame answers is decided by [`Outstanding::answer_if`]: the request
+    /// with the frame's message ID if the frame echoes its Type and Command, or, for a
+    /// Type 0 answer whose ID matches none, the oldest outstanding request. Answers to
+    /// other outstanding requests are kept in `early`.
     fn next_answer(
         &mut self,
         message_id: u16,
@@ -605,25 +605,24 @@ impl Connection {
         // A frame with a request's message ID but not its Type or Command is no answer to
         // it (the protocol core's rule): a forward's answer does not confirm a zero
         // velocity, and a robot's own report that reuses a task's ID does not end its wait.
-        if request_error.is_none()
-            && let Some(&(ty, command)) = self.outstanding.get(id)
-            && !d.message.echoes(ty, command)
-        {
-            warn(&format!(
-                "ignored a Type {} Command {} frame with the message ID of the Type {} \
-                 Command {command} request ({waiting_for})",
-                got.raw(),
-                d.message.command(),
-                ty.raw()
-            ));
-            return None;
-        }
-        let Some((request_id, (ty, _))) = self.outstanding.answer(id, request_error.is_some())
+        let echoes = |&(ty, command): &(MessageType, i32)| d.message.echoes(ty, command);
+        let Some((request_id, (ty, _))) =
+            self.outstanding
+                .answer_if(id, request_error.is_some(), echoes)
         else {
-            warn(&format!(
-                "ignored an unsolicited Type {} frame with message ID {id} ({waiting_for})",
-                got.raw()
-            ));
+            warn(&match self.outstanding.get(id) {
+                Some(&(ty, command)) => format!(
+                    "ignored a Type {} Command {} frame with the message ID of the Type {} \
+                     Command {command} request ({waiting_for})",
+                    got.raw(),
+                    d.message.command(),
+                    ty.raw()
+                ),
+                None => format!(
+                    "ignored an unsolicited Type {} frame with message ID {id} ({waiting_for})",
+                    got.raw()
+                ),
+            });
             return None;
         };
         let result = if let Some(code) = request_error {

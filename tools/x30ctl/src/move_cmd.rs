@@ -151,11 +151,18 @@ pub fn run(ctx: &Ctx, args: &MoveArgs, interrupts: &Interrupts) -> Result<(), Er
             }
         ))),
         Ended::Interrupted | Ended::Done => stop_error.map_or(Ok(()), Err),
+        // The move's own error is the one reported, a Ctrl-C during the stop's wait aside.
         Ended::Failed(e) => {
-            if let Some(stop_error) = stop_error {
-                note(&format!(
+            match stop_error {
+                Some(Error::Interrupted(_)) => {
+                    note(&format!(
+                        "x30ctl: zero velocity {STOP_NOT_AWAITED} (Ctrl-C)"
+                    ));
+                }
+                Some(stop_error) => note(&format!(
                     "x30ctl: zero velocity was not acknowledged: {stop_error}"
-                ));
+                )),
+                None => {}
             }
             Err(e)
         }
