@@ -1135,12 +1135,58 @@ async fn a_command_the_robot_never_answers_does_not_hold_up_motion() {
         "{} forward commands, longest gap {longest_gap:.2} s",
         forward.len()
     );
+    assert_eq!(
+        command_connections(&log),
+        1,
+        "the command connection is kept"
+    );
+}
+
+/// How many connections carried Type 2 requests.
+fn command_connections(log: &[LogEntry]) -> usize {
     let connections: std::collections::BTreeSet<_> = log
         .iter()
         .filter(|e| e.message_type == Some(2))
         .map(|e| e.conn)
         .collect();
-    assert_eq!(connections.len(), 1, "the command connection is kept");
+    connections.len()
+}
+
+/// Against a robot that never answers Type `ignored` and answers the rest: clicks `first`,
+/// waits `after_ms`, holds forward for `hold_ms`; the requests logged, and when the click was.
+async fn forward_after_an_unanswered(
+    ignored: i32,
+    first: Button,
+    after_ms: u64,
+    hold_ms: u64,
+) -> (Vec<LogEntry>, f64) {
+    let sim = simulator(1.0);
+    sim.set_faults(Faults {
+        type_delays: vec![(ignored, StdDuration::from_secs(3600))],
+        ..Default::default()
+    });
+    let clicked = with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        let clicked = sim.elapsed().as_secs_f64();
+        click(shared, first).await;
+        sleep(after_ms).await;
+        press(shared, Button::Forward, true).await;
+        sleep(hold_ms).await;
+        press(shared, Button::Forward, false).await;
+        sleep(200).await;
+        clicked
+    })
+    .await;
+    (sim.requests(), clicked)
+}
+
+/// When each Type 2 request with `command` came, in seconds after `since`.
+fn commands_after(log: &[LogEntry], since: f64, command: i32) -> Vec<f64> {
+    motion(log)
+        .into_iter()
+        .filter(|&(t, c)| t >= since && c == command)
+        .map(|(t, _)| t - since)
+        .collect()
 }
 
 /// The same robot, with forward pressed after the light: held back while the light's answer
@@ -1148,40 +1194,18 @@ async fn a_command_the_robot_never_answers_does_not_hold_up_motion() {
 /// ignores says nothing of motion), and the connection is kept.
 #[tokio::test(flavor = "current_thread")]
 async fn motion_pressed_after_an_ignored_light_goes_out_once_the_light_is_given_up_on() {
-    let sim = simulator(1.0);
-    sim.set_faults(Faults {
-        type_delays: vec![(1101, StdDuration::from_secs(3600))],
-        ..Default::default()
-    });
-    let light_at = with_app(&sim, async |shared| {
-        wait_connected(&sim).await;
-        let light_at = sim.elapsed().as_secs_f64();
-        click(shared, Button::Light).await;
-        sleep(700).await;
-        press(shared, Button::Forward, true).await;
-        sleep(2300).await;
-        press(shared, Button::Forward, false).await;
-        sleep(200).await;
-        light_at
-    })
-    .await;
-    let log = sim.requests();
-    let forward: Vec<f64> = motion(&log)
-        .into_iter()
-        .filter(|&(t, c)| t >= light_at && c == 1)
-        .map(|(t, _)| t - light_at)
-        .collect();
+    let (log, light_at) = forward_after_an_unanswered(1101, Button::Light, 700, 2300).await;
+    let forward = commands_after(&log, light_at, 1);
     // Given up on at 1.5 s; from then to the release at 3.0 s, about six repeats at 4 Hz.
     assert!(
         forward.iter().filter(|&&t| t > 1.4).count() >= 4,
         "forward after the light was given up on: {forward:?} s"
     );
-    let connections: std::collections::BTreeSet<_> = log
-        .iter()
-        .filter(|e| e.message_type == Some(2))
-        .map(|e| e.conn)
-        .collect();
-    assert_eq!(connections.len(), 1, "the command connection is kept");
+    assert_eq!(
+        command_connections(&log),
+        1,
+        "the command connection is kept"
+    );
 }
 
 /// A stricter `robot_server` hangs up on a Type it does not know. The poll lost with the
@@ -1328,38 +1352,17 @@ async fn motion_is_not_written_while_answers_are_overdue() {
 
 /// A robot that answers the polls but no command: the zero velocity that went unanswered is
 /// given up on after 1.5 s, which does not make the robot answer. A forward held from before
-/// that until the panel gives the connection up never reaches it.
+/// that until the panel gives the connection up never reaches it. It is pressed once the
+/// zero velocity's answer is well overdue (ANSWER_OVERDUE, 500 ms): before that, one
+/// forward may go out by the rule.
 #[tokio::test(flavor = "current_thread")]
 async fn motion_stays_held_back_after_an_unanswered_command_is_given_up_on() {
-    let sim = simulator(1.0);
-    sim.set_faults(Faults {
-        type_delays: vec![(2, StdDuration::from_secs(3600))],
-        ..Default::default()
-    });
-    let stopped_at = with_app(&sim, async |shared| {
-        wait_connected(&sim).await;
-        let stopped_at = sim.elapsed().as_secs_f64();
-        click(shared, Button::Stop).await;
-        // Pressed once the zero velocity's answer is well overdue (ANSWER_OVERDUE, 500 ms):
-        // before that, one forward may go out by the rule.
-        sleep(800).await;
-        press(shared, Button::Forward, true).await;
-        sleep(2500).await;
-        press(shared, Button::Forward, false).await;
-        sleep(200).await;
-        stopped_at
-    })
-    .await;
-    let log = sim.requests();
+    let (log, stopped_at) = forward_after_an_unanswered(2, Button::Stop, 800, 2500).await;
     assert!(
-        motion(&log).iter().any(|&(t, c)| t >= stopped_at && c == 6),
+        !commands_after(&log, stopped_at, 6).is_empty(),
         "the zero velocity went out"
     );
-    let forward: Vec<f64> = motion(&log)
-        .into_iter()
-        .filter(|&(t, c)| t >= stopped_at && c == 1)
-        .map(|(t, _)| t - stopped_at)
-        .collect();
+    let forward = commands_after(&log, stopped_at, 1);
     assert!(
         forward.is_empty(),
         "forward reached a robot that had answered no command, at {forward:?} s"
@@ -1470,19 +1473,24 @@ async fn a_refused_estop_is_repeated_until_the_robot_confirms_it() {
     .await;
 }
 
+/// Connects, orders the dock task and lets it run 300 ms; the simulator's seconds then.
+async fn docking(sim: &Simulator, shared: &Shared) -> f64 {
+    wait_connected(sim).await;
+    click(shared, Button::Dock).await;
+    assert!(
+        wait_for_log(sim, 2000, |l| polls(l, 1003) == 1).await,
+        "dock sends a 1003"
+    );
+    sleep(300).await;
+    sim.elapsed().as_secs_f64()
+}
+
 #[tokio::test(flavor = "current_thread")]
 async fn stop_during_a_navigation_task_sends_1004_and_zero_velocity() {
     let sim = simulator(1.0);
     far_from_dock(&sim);
     with_app(&sim, async |shared| {
-        wait_connected(&sim).await;
-        click(shared, Button::Dock).await;
-        assert!(
-            wait_for_log(&sim, 2000, |l| polls(l, 1003) == 1).await,
-            "dock sends a 1003"
-        );
-        sleep(300).await;
-        let pressed = sim.elapsed().as_secs_f64();
+        let pressed = docking(&sim, shared).await;
         click(shared, Button::Stop).await;
         let cancel = wait_for_type(&sim, 2000, pressed, 1004).await;
         let zero = wait_for_command(&sim, 2000, pressed, 6).await;
@@ -1512,14 +1520,7 @@ async fn estop_during_a_navigation_task_cancels_the_task_after_the_estop() {
     let sim = simulator(1.0);
     far_from_dock(&sim);
     with_app(&sim, async |shared| {
-        wait_connected(&sim).await;
-        click(shared, Button::Dock).await;
-        assert!(
-            wait_for_log(&sim, 2000, |l| polls(l, 1003) == 1).await,
-            "dock sends a 1003"
-        );
-        sleep(300).await;
-        let pressed = sim.elapsed().as_secs_f64();
+        let pressed = docking(&sim, shared).await;
         press(shared, Button::Estop, true).await;
         let estop = wait_for_command(&sim, 2000, pressed, 13).await;
         let cancel = wait_for_type(&sim, 2000, pressed, 1004).await;
