@@ -622,9 +622,8 @@ impl Control {
         // it: cancelled after the e-stop, and its connection closed if it runs on. While the
         // command connection is down the 1004 would only go stale (and blink the fault LED
         // for a cancel nobody pressed): closing the task's connection stops the task then.
-        self.end_task(at);
-        if !self.connected {
-            self.cancel = None;
+        if self.withdraw_task() && self.connected {
+            self.cancel = Some(at);
         }
     }
 
@@ -647,14 +646,25 @@ impl Control {
     /// Ends the panel's navigation task at a press: an order not sent is withdrawn, a running
     /// task is cancelled with a 1004.
     fn end_task(&mut self, at: Instant) {
+        if self.withdraw_task() {
+            self.cancel = Some(at);
+        }
+    }
+
+    /// Ends the panel's navigation task and patrol: an order not sent is withdrawn. Returns
+    /// whether a task was running, which the robot is then to be told of (a 1004).
+    fn withdraw_task(&mut self) -> bool {
         self.patrol = None;
         match self.task {
-            Task::Idle => {}
-            Task::Ordered { .. } => self.task = Task::Idle,
+            Task::Idle => false,
+            Task::Ordered { .. } => {
+                self.task = Task::Idle;
+                false
+            }
             Task::Running { .. } => {
                 info!("cancelling the navigation task");
                 self.task = Task::Idle;
-                self.cancel = Some(at);
+                true
             }
         }
     }
