@@ -131,6 +131,32 @@ async fn a_frame_of_another_type_or_command_with_the_requests_id_is_no_answer() 
     assert_eq!(link.anomalies().unsolicited, 2);
 }
 
+/// A robot that wrote only part of the status answer, then the e-stop's answer: the e-stop's
+/// answer is not swallowed as the rest of the broken frame, and the broken one is counted.
+#[tokio::test]
+async fn an_answer_cut_short_does_not_swallow_the_estops_answer() {
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        let (status_id, _) = read_request(&mut s, &mut d).unwrap();
+        let (estop_id, _) = read_request(&mut s, &mut d).unwrap();
+        let mut bytes = answer(status_id, &Response::Status(RobotStatus::UNAVAILABLE));
+        bytes.truncate(frame::HEADER_LEN + 100);
+        bytes.extend(answer(estop_id, &ack(MotionCommand::SoftEmergencyStop)));
+        s.write_all(&bytes).unwrap();
+        thread::sleep(std::time::Duration::from_millis(200));
+    });
+    let mut link = connected(addr).await;
+    link.send(&Request::Status).await.unwrap();
+    let estop_id = link
+        .send(&Request::Motion(MotionCommand::SoftEmergencyStop))
+        .await
+        .unwrap();
+    let answer = link.receive().await.unwrap();
+    assert_eq!(answer.message_id, estop_id);
+    assert_eq!(answer.result, Ok(ack(MotionCommand::SoftEmergencyStop)));
+    assert_eq!(link.anomalies().stream_errors, 1);
+}
+
 #[tokio::test]
 async fn message_ids_count_up_per_request() {
     let addr = peer(|mut s| {

@@ -1,5 +1,6 @@
 //! The 16-byte header and the streaming frame decoder: split at every byte offset, merged
-//! frames, garbage between frames, oversize, zero length, bad reserved bytes.
+//! frames, garbage between frames, oversize, frames cut short, zero length, bad reserved
+//! bytes.
 
 use x30_panel::proto::frame::*;
 
@@ -188,6 +189,122 @@ fn oversize_frame_is_skipped_without_losing_the_next() {
         );
     }
     assert_eq!(FrameDecoder::<64>::MAX_ASDU, 48);
+}
+
+/// A robot that wrote only part of a frame, then the next: the sync sequence inside the
+/// declared body shows where the broken frame ends, so the next one is not swallowed as its
+/// body, however the bytes are split into reads.
+#[test]
+fn frame_cut_short_does_not_swallow_the_next() {
+    let mut cut = frame(1, &[b'A'; 40]);
+    cut.truncate(HEADER_LEN + 10);
+    let bytes = [cut, frame(2, b"next"), frame(3, b"after")].concat();
+    for chunk in [1, 3, 7, 64, 1000] {
+        let mut d = FrameDecoder::<64>::new();
+        assert_eq!(
+            run(&mut d, &bytes, chunk),
+            vec![
+                Err(FrameError::CutShort {
+                    message_id: 1,
+                    asdu_len: 40,
+                    received: 10
+                }),
+                Ok((2, b"next".to_vec())),
+                Ok((3, b"after".to_vec())),
+            ],
+            "chunk {chunk}"
+        );
+    }
+}
+
+/// The same for a frame too long for the buffer: it is reported as too long at once, and as
+/// cut short when the next frame's sync sequence turns up inside its declared body.
+#[test]
+fn oversize_frame_cut_short_does_not_swallow_the_next() {
+    let mut cut = frame(1, &[b'B'; 300]);
+    cut.truncate(HEADER_LEN + 100);
+    let bytes = [cut, frame(2, b"next")].concat();
+    for chunk in [1, 2, 13, 64, 1000] {
+        let mut d = FrameDecoder::<64>::new();
+        assert_eq!(
+            run(&mut d, &bytes, chunk),
+            vec![
+                Err(FrameError::TooLong {
+                    message_id: 1,
+                    asdu_len: 300
+                }),
+                Err(FrameError::CutShort {
+                    message_id: 1,
+                    asdu_len: 300,
+                    received: 100
+                }),
+                Ok((2, b"next".to_vec())),
+            ],
+            "chunk {chunk}"
+        );
+    }
+}
+
+/// A frame cut short within its last three declared bytes: the next frame's sync sequence
+/// does not fit in the body, but its first bytes end it, and no UTF-8 text ends so.
+#[test]
+fn frame_cut_short_near_its_end_does_not_swallow_the_next() {
+    for missing in 1..=3 {
+        let mut cut = frame(1, &[b'A'; 20]);
+        cut.truncate(cut.len() - missing);
+        let bytes = [cut, frame(2, b"next")].concat();
+        for chunk in [1, 2, 5, 1000] {
+            let mut d = FrameDecoder::<64>::new();
+            assert_eq!(
+                run(&mut d, &bytes, chunk),
+                vec![
+                    Err(FrameError::CutShort {
+                        message_id: 1,
+                        asdu_len: 20,
+                        received: 20 - missing as u16
+                    }),
+                    Ok((2, b"next".to_vec())),
+                ],
+                "{missing} missing, chunk {chunk}"
+            );
+        }
+        let mut cut = frame(3, &[b'B'; 100]);
+        cut.truncate(cut.len() - missing);
+        let bytes = [cut, frame(4, b"next")].concat();
+        let mut d = FrameDecoder::<64>::new();
+        assert_eq!(
+            run(&mut d, &bytes, 7),
+            vec![
+                Err(FrameError::TooLong {
+                    message_id: 3,
+                    asdu_len: 100
+                }),
+                Err(FrameError::CutShort {
+                    message_id: 3,
+                    asdu_len: 100,
+                    received: 100 - missing as u16
+                }),
+                Ok((4, b"next".to_vec())),
+            ],
+            "oversized, {missing} missing"
+        );
+    }
+}
+
+/// Part of a sync sequence inside a body is a byte like any other (it is no UTF-8, but the
+/// decoder does not judge the body): only a whole one cuts the frame short.
+#[test]
+fn part_of_a_sync_sequence_inside_a_body_is_kept() {
+    let body = [b"a\xEB\x90\xEBb".as_slice(), &SYNC[..3], b"\xEB\x90c"].concat();
+    let bytes = [frame(1, &body), frame(2, b"next")].concat();
+    for chunk in [1, 2, 3, 1000] {
+        let mut d = FrameDecoder::<64>::new();
+        assert_eq!(
+            run(&mut d, &bytes, chunk),
+            vec![Ok((1, body.clone())), Ok((2, b"next".to_vec()))],
+            "chunk {chunk}"
+        );
+    }
 }
 
 #[test]

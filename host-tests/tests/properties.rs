@@ -580,6 +580,18 @@ fn find_sync(bytes: &[u8]) -> Option<usize> {
     bytes.windows(SYNC.len()).position(|w| w == SYNC)
 }
 
+/// `bytes` made to look like a body of UTF-8 text to the frame decoder: no sync sequence in
+/// it, and not ending in part of one (`EB`, `EB 90`, `EB 90 EB`), which UTF-8 never does.
+fn body_text(bytes: Vec<u8>) -> Vec<u8> {
+    let mut bytes = without_sync(&[], bytes);
+    if let Some(last) = bytes.last_mut()
+        && (*last == SYNC[0] || *last == SYNC[1])
+    {
+        *last = 0;
+    }
+    bytes
+}
+
 /// Zeroes bytes of `bytes` until `fixed ++ bytes` holds no sync sequence. A sync found
 /// there must end inside `bytes` (`fixed` is shorter than a sync sequence), so one of its
 /// bytes can always be zeroed, and a zero byte is never part of a sync sequence.
@@ -618,9 +630,9 @@ fn sync_ish_byte() -> impl Strategy<Value = u8> {
     prop_oneof![3 => any::<u8>(), 1 => Just(0xEB), 1 => Just(0x90)]
 }
 
-/// Deterministic filler for the body of an oversized frame, with sync sequences and
-/// plausible headers sprinkled in: a skipped body must be skipped by length, never
-/// searched for a sync sequence.
+/// Deterministic filler for the body of an oversized frame, with the first three bytes of
+/// a sync sequence sprinkled in, but never a whole one ([`body_text`]): a skipped body is
+/// skipped by its length.
 fn filler(len: usize, seed: u64) -> Vec<u8> {
     let mut state = seed | 1;
     let mut out = Vec::with_capacity(len);
@@ -629,17 +641,13 @@ fn filler(len: usize, seed: u64) -> Vec<u8> {
         state ^= state >> 7;
         state ^= state << 17;
         if state.is_multiple_of(97) {
-            out.extend_from_slice(&header_bytes(
-                state as u16,
-                (state >> 16) as u8 as u16,
-                [0; 8],
-            ));
+            out.extend_from_slice(&SYNC[..3]);
         } else {
             out.push(state as u8);
         }
     }
     out.truncate(len);
-    out
+    body_text(out)
 }
 
 /// One piece of a stream made only of frames: one that fits the decoder, or one that does not.
@@ -690,10 +698,15 @@ impl Piece {
     }
 }
 
-/// A frame whose body fits a decoder with `max_asdu` bytes of body room.
+/// A frame whose body fits a decoder with `max_asdu` bytes of body room. Its body holds no
+/// sync sequence, as UTF-8 text never does, though it may hold pieces of one.
 fn fitting_frame(max_asdu: usize) -> impl Strategy<Value = Piece> {
-    (any::<u16>(), vec(sync_ish_byte(), 0..=max_asdu.min(300)))
-        .prop_map(|(message_id, asdu)| Piece::Fits { message_id, asdu })
+    (any::<u16>(), vec(sync_ish_byte(), 0..=max_asdu.min(300))).prop_map(|(message_id, asdu)| {
+        Piece::Fits {
+            message_id,
+            asdu: body_text(asdu),
+        }
+    })
 }
 
 /// A frame whose declared body is longer than `max_asdu`: often just longer, sometimes
@@ -1085,8 +1098,7 @@ proptest! {
 
     /// A stream of whole frames, some too long for the decoder, yields each frame that fits
     /// and one `TooLong` for each that does not, in order: a frame after an oversized one
-    /// (or after several) is never lost, and oversized bodies are skipped by length even when
-    /// they contain sync sequences.
+    /// (or after several) is never lost, and oversized bodies are skipped by their length.
     #[test]
     fn frames_after_oversized_frames_are_never_lost(
         small in vec(piece(FrameDecoder::<64>::MAX_ASDU), 1..8),
@@ -1103,6 +1115,61 @@ proptest! {
         check::<64>(&small, &plan)?;
         check::<256>(&medium, &plan)?;
         check::<4096>(&large, &plan)?;
+    }
+
+    /// A stream of frames, some cut short (a sender that wrote only part of one, then the
+    /// next), some too long for the decoder: each frame that fits and is whole comes out,
+    /// each cut one is reported with how much of its body came, and each oversized one as
+    /// too long (and then as cut short, if it was): no frame after a broken one is lost.
+    #[test]
+    fn frames_after_frames_cut_short_are_never_lost(
+        small in vec((piece(FrameDecoder::<64>::MAX_ASDU), any::<Option<Index>>()), 1..8),
+        large in vec((piece(FrameDecoder::<4096>::MAX_ASDU), any::<Option<Index>>()), 1..4),
+        last in fitting_frame(FrameDecoder::<64>::MAX_ASDU),
+        plan in read_plan(),
+    ) {
+        fn check<const N: usize>(
+            pieces: &[(Piece, Option<Index>)],
+            last: &Piece,
+            plan: &[(usize, bool)],
+        ) -> Result<(), TestCaseError> {
+            let mut stream = Vec::new();
+            let mut expected = Vec::new();
+            for (piece, cut) in pieces {
+                let mut bytes = piece.bytes();
+                let body_len = bytes.len() - HEADER_LEN;
+                let Some(received) = cut.filter(|_| body_len > 0).map(|c| c.index(body_len)) else {
+                    stream.extend(bytes);
+                    expected.push(piece.expected());
+                    continue;
+                };
+                bytes.truncate(HEADER_LEN + received);
+                // A body ending in `EB 90` would make a sync sequence with the next header's
+                // first half; such a body is no UTF-8 either.
+                if bytes.ends_with(&SYNC[..2]) {
+                    *bytes.last_mut().unwrap() = 0;
+                }
+                let (message_id, asdu_len) = match piece {
+                    Piece::Fits { message_id, asdu } => (*message_id, asdu.len() as u16),
+                    Piece::Oversized { message_id, asdu_len, .. } => {
+                        expected.push(piece.expected());
+                        (*message_id, *asdu_len)
+                    }
+                };
+                expected.push(Event::Error(FrameError::CutShort {
+                    message_id,
+                    asdu_len,
+                    received: received as u16,
+                }));
+                stream.extend(bytes);
+            }
+            stream.extend(last.bytes());
+            expected.push(last.expected());
+            prop_assert_eq!(run::<N>(&stream, plan)?, expected);
+            Ok(())
+        }
+        check::<64>(&small, &last, &plan)?;
+        check::<4096>(&large, &last, &plan)?;
     }
 
     /// Garbage that holds no sync sequence, then a valid frame: the decoder reports every

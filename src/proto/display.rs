@@ -48,6 +48,15 @@ impl Display for FrameError {
                 f,
                 "message {message_id}: {asdu_len}-byte body is too long, skipped"
             ),
+            Self::CutShort {
+                message_id,
+                asdu_len,
+                received,
+            } => write!(
+                f,
+                "message {message_id}: cut short after {received} of its {asdu_len} body \
+                 bytes by the next frame, skipped"
+            ),
         }
     }
 }

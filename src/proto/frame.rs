@@ -13,6 +13,13 @@
 //! finds the sync sequence again after garbage, and skips frames too long for its buffer
 //! without losing the frame that follows.
 //!
+//! The body is UTF-8 text, and no UTF-8 text contains the sync sequence: `EB` starts a
+//! three-byte character, so `EB 90` must be followed by a continuation byte, never by
+//! another `EB`; nor does it end in `EB`, `EB 90` or `EB 90 EB`. A sync sequence inside a
+//! declared body, or part of one at its end, therefore means that frame was cut short (a
+//! sender that wrote only part of it), and the next frame starts there: the decoder hands
+//! that one out rather than swallowing it as the rest of the broken body.
+//!
 //! The document reserves the last eight header bytes and fills them with zeros "for now".
 //! The robot refuses a request whose reserved bytes are not zero, and so does a decoder by
 //! default. A client reads answers with [`Reserved::Ignore`], so that a robot whose
@@ -176,13 +183,25 @@ pub enum FrameError {
         /// The message ID the bad header carried.
         message_id: u16,
     },
-    /// A frame longer than the decoder's buffer; its bytes are skipped as they arrive
-    /// (the robot's ErrorCode 3).
+    /// A frame longer than the decoder's buffer; its bytes are skipped as they arrive, up
+    /// to its declared length or the next sync sequence (the robot's ErrorCode 3).
     TooLong {
         /// The message ID of the skipped frame.
         message_id: u16,
         /// Its declared ASDU length.
         asdu_len: u16,
+    },
+    /// A sync sequence came before the end of a frame's declared body, or its body ended in
+    /// part of one, which UTF-8 text never does: the frame was cut short, and decoding
+    /// resumes at that sync sequence (the robot's ErrorCode 3). A frame longer than the buffer, reported as
+    /// [`FrameError::TooLong`] already, is reported again if it is cut short.
+    CutShort {
+        /// The message ID of the broken frame.
+        message_id: u16,
+        /// Its declared ASDU length.
+        asdu_len: u16,
+        /// How many bytes of its body came before the next frame's sync sequence.
+        received: u16,
     },
 }
 
@@ -218,6 +237,11 @@ pub struct FrameDecoder<const N: usize> {
     end: usize,
     /// Bytes of an oversized frame still to be thrown away as they arrive.
     skip: usize,
+    /// The oversized frame being skipped: its header, to report it if it is cut short.
+    skipping: Header,
+    /// Bytes after `start` already searched for a sync sequence that would cut the frame
+    /// there short, so that a body arriving a few bytes at a time is searched once.
+    searched: usize,
     /// Garbage counted before a sync sequence was found, reported once per run.
     garbage: usize,
 }
@@ -248,6 +272,11 @@ impl<const N: usize> FrameDecoder<N> {
             start: 0,
             end: 0,
             skip: 0,
+            skipping: Header {
+                asdu_len: 0,
+                message_id: 0,
+            },
+            searched: 0,
             garbage: 0,
         }
     }
@@ -300,30 +329,45 @@ impl<const N: usize> FrameDecoder<N> {
     /// The next frame or stream error, or `None` when more bytes are needed.
     pub fn decode(&mut self) -> Option<Result<Frame<'_>, FrameError>> {
         loop {
-            self.discard_skipped();
             if self.skip > 0 {
-                return None;
+                let declared_end = self.start + self.skip;
+                match self.body_end(self.start, declared_end) {
+                    Ok(at) => {
+                        let received = usize::from(self.skipping.asdu_len) - self.skip + at;
+                        self.skip = 0;
+                        self.advance(at);
+                        return Some(Err(cut_short(self.skipping, received)));
+                    }
+                    // Drop what came, but for a tail that could start a sync sequence split
+                    // across reads.
+                    Err(at) => {
+                        self.advance(at);
+                        self.skip -= at;
+                    }
+                }
+                if self.skip > 0 {
+                    return None;
+                }
             }
             let pending = self.buf.get(self.start..self.end).unwrap_or_default();
-            let Some(at) = find_sync(pending) else {
+            let at = sync_start(pending);
+            if pending.len() - at < SYNC.len() {
                 // Keep a tail that could be the start of a sync sequence split across reads.
-                let keep = sync_prefix_len(pending);
-                let dropped = pending.len() - keep;
-                self.start += dropped;
-                self.garbage += dropped;
+                self.advance(at);
+                self.garbage += at;
                 return None;
-            };
+            }
             let skip = match self.overlapping_sync(pending.get(at..).unwrap_or_default()) {
                 Overlap::No => at,
                 Overlap::Later => at + 2,
                 Overlap::Undecided => {
-                    self.start += at;
+                    self.advance(at);
                     self.garbage += at;
                     return None;
                 }
             };
             if skip > 0 {
-                self.start += skip;
+                self.advance(skip);
                 self.garbage += skip;
             }
             if skip > at {
@@ -342,30 +386,42 @@ impl<const N: usize> FrameDecoder<N> {
                 Err(HeaderError::BadReserved) => {
                     let message_id = u16::from_le_bytes([header[6], header[7]]);
                     // Drop one byte only: a real sync sequence may start inside this header.
-                    self.start += 1;
+                    self.advance(1);
                     return Some(Err(FrameError::BadReserved { message_id }));
                 }
-                // find_sync put a sync sequence at `start`; keep looking if that ever changes.
+                // sync_start put a sync sequence at `start`; keep looking if that ever changes.
                 Err(HeaderError::BadSync) => {
-                    self.start += 1;
+                    self.advance(1);
                     continue;
                 }
             };
             let asdu_len = usize::from(header.asdu_len);
             if asdu_len > Self::MAX_ASDU {
-                self.start += HEADER_LEN;
+                self.advance(HEADER_LEN);
                 self.skip = asdu_len;
+                self.skipping = header;
                 return Some(Err(FrameError::TooLong {
                     message_id: header.message_id,
                     asdu_len: header.asdu_len,
                 }));
             }
             let body = self.start + HEADER_LEN;
-            if self.end < body + asdu_len {
-                return None;
+            let declared_end = body + asdu_len;
+            match self.body_end(body.max(self.start + self.searched), declared_end) {
+                Ok(at) => {
+                    self.advance(at);
+                    return Some(Err(cut_short(header, at - HEADER_LEN)));
+                }
+                // The bytes before `at` hold no sync sequence: they need no second search.
+                Err(at) if self.end < declared_end => {
+                    self.searched = at;
+                    return None;
+                }
+                Err(_) => {}
             }
-            let asdu = self.buf.get(body..body + asdu_len)?;
-            self.start = body + asdu_len;
+            let asdu = self.buf.get(body..declared_end)?;
+            self.start = declared_end;
+            self.searched = 0;
             return Some(Ok(Frame {
                 message_id: header.message_id,
                 asdu,
@@ -373,11 +429,31 @@ impl<const N: usize> FrameDecoder<N> {
         }
     }
 
-    /// Drops received bytes that belong to an oversized frame being skipped.
-    fn discard_skipped(&mut self) {
-        let n = self.skip.min(self.end.saturating_sub(self.start));
+    /// Moves past `n` bytes, which ends any search of a body that started before them.
+    fn advance(&mut self, n: usize) {
         self.start += n;
-        self.skip -= n;
+        self.searched = 0;
+    }
+
+    /// Searches the bytes received from `from` up to `declared_end`, the declared end of the
+    /// body they belong to, for the start of the next frame: a sync sequence, or, once the
+    /// whole body is here, part of one that ends it. UTF-8 text holds neither, so either
+    /// means the body was cut short there: `Ok(where)`. Otherwise `Err(where)`: the bytes
+    /// before it are body, those after it may still start a sync sequence. Both count from
+    /// `start`.
+    fn body_end(&self, from: usize, declared_end: usize) -> Result<usize, usize> {
+        let bytes = self
+            .buf
+            .get(from..self.end.min(declared_end))
+            .unwrap_or_default();
+        let at = sync_start(bytes);
+        let rest = bytes.len() - at;
+        let found = from + at - self.start;
+        if rest >= SYNC.len() || (rest > 0 && self.end >= declared_end) {
+            Ok(found)
+        } else {
+            Err(found)
+        }
     }
 
     /// `EB 90 EB 90 EB 90` is either a frame whose length field is `EB 90` (37099 bytes), or
@@ -416,15 +492,25 @@ enum Overlap {
     Undecided,
 }
 
-/// Position of the first complete sync sequence in `bytes`.
-fn find_sync(bytes: &[u8]) -> Option<usize> {
-    bytes.windows(SYNC.len()).position(|w| w == SYNC)
+/// The error for the frame with `header`, cut short after `received` bytes of its body.
+fn cut_short(header: Header, received: usize) -> FrameError {
+    FrameError::CutShort {
+        message_id: header.message_id,
+        asdu_len: header.asdu_len,
+        // Less than the declared length, which is a u16.
+        received: u16::try_from(received).unwrap_or(header.asdu_len),
+    }
 }
 
-/// Length of the longest suffix of `bytes` that is a proper prefix of the sync sequence.
-fn sync_prefix_len(bytes: &[u8]) -> usize {
-    (1..SYNC.len())
-        .rev()
-        .find(|&n| bytes.ends_with(SYNC.get(..n).unwrap_or_default()))
-        .unwrap_or(0)
+/// Where in `bytes` the first sync sequence starts, or part of one that ends them;
+/// `bytes.len()` if neither does.
+#[inline(never)]
+fn sync_start(bytes: &[u8]) -> usize {
+    (0..bytes.len())
+        .find(|&at| {
+            let rest = bytes.get(at..).unwrap_or_default();
+            let n = rest.len().min(SYNC.len());
+            rest.get(..n) == SYNC.get(..n)
+        })
+        .unwrap_or(bytes.len())
 }

@@ -310,7 +310,7 @@ impl Connection {
             conn,
             outbox,
             received: 0,
-            unsynced: Unsynced::new(Instant::now()),
+            unsynced: Unsynced::new(Instant::now(), Decoder::MAX_ASDU),
         }
     }
 
@@ -426,7 +426,8 @@ impl Connection {
                     FrameError::BadReserved { message_id } => {
                         (RequestErrorCode::HeaderWrong, Some(message_id))
                     }
-                    FrameError::TooLong { message_id, .. } => {
+                    FrameError::TooLong { message_id, .. }
+                    | FrameError::CutShort { message_id, .. } => {
                         (RequestErrorCode::LengthAbnormal, Some(message_id))
                     }
                     _ => (RequestErrorCode::HeaderMissing, None),

@@ -11,8 +11,8 @@
 //!
 //! The decoder does not say how many bytes it has thrown away unreported, so [`Unsynced`]
 //! works it out from what it does say: the bytes read, the bytes its events account for
-//! (a frame, a reported run, the first byte of a wrong header, an oversized frame), and the
-//! bytes it still holds. Whatever is left was thrown away.
+//! (a frame, a reported run, the first byte of a wrong header, an oversized frame, the part
+//! of a frame cut short), and the bytes it still holds. Whatever is left was thrown away.
 
 use std::time::{Duration, Instant};
 
@@ -40,17 +40,22 @@ pub(crate) struct Unsynced {
     /// Whether the bytes thrown away now are the rest of a frame with a wrong header, which
     /// that frame's ErrorCode 2 covers.
     rest_of_bad_frame: bool,
+    /// The longest body the decoder holds: a longer frame was accounted for whole when it
+    /// was reported too long, before it was found cut short.
+    max_asdu: usize,
 }
 
 impl Unsynced {
-    /// A count for a connection opened at `now`.
-    pub fn new(now: Instant) -> Self {
+    /// A count for a connection opened at `now`, read by a decoder that holds bodies of up
+    /// to `max_asdu` bytes.
+    pub fn new(now: Instant, max_asdu: usize) -> Self {
         Self {
             received: 0,
             accounted: 0,
             answered: 0,
             last_byte: now,
             rest_of_bad_frame: false,
+            max_asdu,
         }
     }
 
@@ -75,6 +80,15 @@ impl Unsynced {
             // The decoder looks for the next sync sequence after the header's first byte.
             Err(FrameError::BadReserved { .. }) => 1,
             Err(FrameError::TooLong { asdu_len, .. }) => HEADER_LEN + usize::from(*asdu_len),
+            Err(FrameError::CutShort {
+                asdu_len, received, ..
+            }) if usize::from(*asdu_len) > self.max_asdu => {
+                // Its TooLong counted the whole declared body; only `received` bytes came.
+                let unused = u64::from(asdu_len - received);
+                self.accounted = self.accounted.saturating_sub(unused);
+                0
+            }
+            Err(FrameError::CutShort { received, .. }) => HEADER_LEN + usize::from(*received),
             Err(_) => 0,
         };
         self.accounted = self.accounted.saturating_add(consumed as u64);
@@ -146,7 +160,7 @@ mod tests {
             let start = Instant::now();
             Self {
                 decoder: FrameDecoder::new(),
-                unsynced: Unsynced::new(start),
+                unsynced: Unsynced::new(start, FrameDecoder::<N>::MAX_ASDU),
                 start,
             }
         }
@@ -264,5 +278,29 @@ mod tests {
         assert_eq!(r.due(500), None, "skipped to its end");
         r.feed(b"??", 600);
         assert_eq!(r.due(700), Some(2));
+    }
+
+    /// A frame cut short, small or oversized, accounts for the part of it that came: bytes
+    /// without a sync sequence after the next frame are counted exactly.
+    #[test]
+    fn a_frame_cut_short_is_not_garbage_and_leaves_the_count_right() {
+        for declared in [100, 300] {
+            let mut r = Reader::new();
+            let mut cut = frame(9, &vec![b' '; declared]);
+            cut.truncate(HEADER_LEN + 40);
+            let mut bytes = cut;
+            bytes.extend(frame(10, b"<next/>"));
+            let events = r.feed(&bytes, 0);
+            let cut_short = Err(FrameError::CutShort {
+                message_id: 9,
+                asdu_len: declared as u16,
+                received: 40,
+            });
+            assert_eq!(events.last(), Some(&Ok((10, b"<next/>".to_vec()))));
+            assert!(events.contains(&cut_short), "{declared}: {events:?}");
+            assert_eq!(r.due(200), None, "{declared}: nothing thrown away");
+            r.feed(b"????", 300);
+            assert_eq!(r.due(400), Some(4), "{declared}");
+        }
     }
 }

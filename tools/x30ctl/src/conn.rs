@@ -525,20 +525,24 @@ impl Connection {
                 Err(FrameError::TooLong {
                     message_id: id,
                     asdu_len,
-                }) if self.outstanding.contains(id) => {
-                    let ty = self.outstanding.remove(id).map_or(0, |(ty, _)| ty.raw());
-                    (
-                        id,
-                        Err(Error::BadAnswer {
-                            message_type: ty,
-                            message_id: id,
-                            detail: format!(
-                                "{asdu_len}-byte body, longer than the {}-byte limit; skipped",
-                                MAX_FRAME_LEN - HEADER_LEN
-                            ),
-                        }),
-                    )
-                }
+                }) if self.outstanding.contains(id) => self.broken_answer(
+                    id,
+                    format!(
+                        "{asdu_len}-byte body, longer than the {}-byte limit; skipped",
+                        MAX_FRAME_LEN - HEADER_LEN
+                    ),
+                ),
+                Err(FrameError::CutShort {
+                    message_id: id,
+                    asdu_len,
+                    received,
+                }) if self.outstanding.contains(id) => self.broken_answer(
+                    id,
+                    format!(
+                        "cut short after {received} of its {asdu_len} body bytes by the next \
+                         frame; skipped"
+                    ),
+                ),
                 Err(e) => {
                     warn(&stream_error_text(&e));
                     continue;
@@ -550,6 +554,20 @@ impl Connection {
             self.early.push((answered, result));
         }
         None
+    }
+
+    /// Ends the wait of outstanding request `id`, whose answer could not be read whole
+    /// (`detail` says why): its message ID and the error.
+    fn broken_answer(&mut self, id: u16, detail: String) -> (u16, Result<Answer, Error>) {
+        let ty = self.outstanding.remove(id).map_or(0, |(ty, _)| ty.raw());
+        (
+            id,
+            Err(Error::BadAnswer {
+                message_type: ty,
+                message_id: id,
+                detail,
+            }),
+        )
     }
 
     /// Matches one decoded (or undecodable) frame with message ID `id` to the outstanding
@@ -683,6 +701,14 @@ pub fn stream_error_text(e: &FrameError) -> String {
         } => format!(
             "skipped an oversize frame (message ID {message_id}, {asdu_len}-byte body, limit {})",
             MAX_FRAME_LEN - HEADER_LEN
+        ),
+        FrameError::CutShort {
+            message_id,
+            asdu_len,
+            received,
+        } => format!(
+            "skipped a frame cut short by the next one (message ID {message_id}, {received} of \
+             its {asdu_len} body bytes)"
         ),
         other => format!("stream error: {other:?}"),
     }
@@ -869,6 +895,32 @@ mod tests {
         assert!(
             matches!(answer, Ok(Answer { response: Response::Battery(_), message_id, .. }) if message_id == id),
             "{answer:?}"
+        );
+    }
+
+    /// The status answer cut short (its header claims more than came), then the battery's:
+    /// the status request fails at once as a bad answer, and the battery's answer, which
+    /// the broken frame's declared length would have swallowed, still arrives.
+    #[test]
+    fn an_answer_cut_short_fails_its_request_and_the_next_answer_is_kept() {
+        let (first, second) = two_outstanding(|a, b| {
+            let mut cut = status(a);
+            cut.truncate(HEADER_LEN + 40);
+            [cut, battery(b)].concat()
+        });
+        assert!(
+            matches!(&first, Err(Error::BadAnswer { detail, .. }) if detail.contains("cut short after 40 of")),
+            "{first:?}"
+        );
+        assert!(
+            matches!(
+                second,
+                Ok(Answer {
+                    response: Response::Battery(_),
+                    ..
+                })
+            ),
+            "{second:?}"
         );
     }
 

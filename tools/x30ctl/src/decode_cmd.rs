@@ -47,6 +47,15 @@ enum Event {
         /// Whether the input ended before the frame did.
         cut: bool,
     },
+    /// A frame that ended before its declared length: the next frame's sync sequence came
+    /// first. Skipped.
+    CutShort {
+        offset: usize,
+        message_id: u16,
+        asdu_len: u16,
+        /// Bytes of its body that came.
+        received: u16,
+    },
     /// The input ended inside a frame.
     Truncated {
         offset: usize,
@@ -182,7 +191,13 @@ fn scan(bytes: &[u8]) -> Vec<Event> {
             let header = bytes
                 .get(offset..)
                 .and_then(|b| b.first_chunk::<HEADER_LEN>());
-            if let (Some(header), Ok(_) | Err(FrameError::TooLong { .. })) = (header, &item)
+            let starts_here = match &item {
+                Ok(_) | Err(FrameError::TooLong { .. }) => true,
+                // An oversized frame cut short was reported (and its header looked at) before.
+                Err(FrameError::CutShort { asdu_len, .. }) => usize::from(*asdu_len) <= MAX_BODY,
+                Err(_) => false,
+            };
+            if let Some(header) = header.filter(|_| starts_here)
                 && Header::decode(header) == Err(HeaderError::BadReserved)
             {
                 let message_id = u16::from_le_bytes([header[6], header[7]]);
@@ -214,6 +229,30 @@ fn scan(bytes: &[u8]) -> Vec<Event> {
                         message_id,
                         asdu_len,
                         cut: cursor > bytes.len(),
+                    });
+                }
+                Err(FrameError::CutShort {
+                    message_id,
+                    asdu_len,
+                    received,
+                }) => {
+                    // An oversized frame was counted whole when it was reported: it starts
+                    // where that report does, and the input did not end inside it.
+                    let offset = match events.last_mut() {
+                        Some(Event::Oversize {
+                            offset: start, cut, ..
+                        }) if usize::from(asdu_len) > MAX_BODY => {
+                            *cut = false;
+                            *start
+                        }
+                        _ => offset,
+                    };
+                    cursor = offset + HEADER_LEN + usize::from(received);
+                    events.push(Event::CutShort {
+                        offset,
+                        message_id,
+                        asdu_len,
+                        received,
                     });
                 }
                 Err(_) => {}
@@ -389,6 +428,14 @@ fn event_text(event: &Event, index: usize, xml: bool) -> String {
                 ""
             }
         ),
+        Event::CutShort {
+            offset,
+            message_id,
+            asdu_len,
+            received,
+        } => format!(
+            "frame cut short at byte {offset}: message ID {message_id}, the header declares a {asdu_len}-byte body, but the next frame starts after {received} bytes of it; skipped"
+        ),
         Event::Truncated {
             offset,
             asdu_len: Some(len),
@@ -416,10 +463,11 @@ fn summary(events: &[Event], total: usize) -> String {
         })
         .sum();
     format!(
-        "{total} bytes: {frames} frame(s), {} garbage run(s) ({garbage} bytes), {} header(s) with reserved bytes set, {} oversize frame(s), {} truncated frame(s)",
+        "{total} bytes: {frames} frame(s), {} garbage run(s) ({garbage} bytes), {} header(s) with reserved bytes set, {} oversize frame(s), {} frame(s) cut short, {} truncated frame(s)",
         count(|e| matches!(e, Event::Garbage { .. })),
         count(|e| matches!(e, Event::Reserved { .. })),
         count(|e| matches!(e, Event::Oversize { .. })),
+        count(|e| matches!(e, Event::CutShort { .. })),
         count(|e| matches!(e, Event::Truncated { .. })),
     )
 }
@@ -519,6 +567,17 @@ fn event_json(event: &Event, index: usize, xml: bool) -> String {
             error: cut.then(|| "the input ends inside the frame".to_owned()),
             ..EventJson::new("oversize", *offset)
         }),
+        Event::CutShort {
+            offset,
+            message_id,
+            asdu_len,
+            received,
+        } => line(EventJson {
+            message_id: Some(*message_id),
+            asdu_len: Some(usize::from(*asdu_len)),
+            present: Some(HEADER_LEN + usize::from(*received)),
+            ..EventJson::new("cut_short", *offset)
+        }),
         Event::Truncated {
             offset,
             asdu_len,
@@ -595,6 +654,53 @@ mod tests {
         );
         assert!(
             matches!(events[4], Event::Truncated { offset, present: 20, .. } if offset == cut_at)
+        );
+    }
+
+    /// Frames cut short by the next one, one that fits and one too long for the limit, are
+    /// reported where they start, with what came of them, and the frames after them keep
+    /// their offsets.
+    #[test]
+    fn scan_reports_frames_cut_short() {
+        let body = b"<PatrolDevice><Type>1002</Type><Command>1</Command><Items/></PatrolDevice>";
+        let mut input = frame_bytes(1, body);
+        input.truncate(HEADER_LEN + 30);
+        let second_at = input.len();
+        let mut oversize = frame_bytes(2, b"");
+        let declared = u16::try_from(MAX_BODY + 100).unwrap_or(0);
+        oversize[4..6].copy_from_slice(&declared.to_le_bytes());
+        oversize.resize(HEADER_LEN + 50, b'x');
+        input.extend_from_slice(&oversize);
+        let third_at = input.len();
+        input.extend_from_slice(&frame_bytes(3, body));
+        let events = scan(&input);
+        assert_eq!(
+            events,
+            [
+                Event::CutShort {
+                    offset: 0,
+                    message_id: 1,
+                    asdu_len: u16::try_from(body.len()).unwrap_or(0),
+                    received: 30,
+                },
+                Event::Oversize {
+                    offset: second_at,
+                    message_id: 2,
+                    asdu_len: declared,
+                    cut: false,
+                },
+                Event::CutShort {
+                    offset: second_at,
+                    message_id: 2,
+                    asdu_len: declared,
+                    received: 50,
+                },
+                Event::Frame {
+                    offset: third_at,
+                    message_id: 3,
+                    asdu: body.to_vec(),
+                },
+            ]
         );
     }
 }
