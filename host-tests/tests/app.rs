@@ -764,7 +764,7 @@ async fn with_faulty_robot(
 
 #[tokio::test(flavor = "current_thread")]
 async fn every_fault_injection_option_is_survived() {
-    let options: [(&str, Faults); 11] = [
+    let options: [(&str, Faults); 12] = [
         (
             "delay",
             Faults {
@@ -797,6 +797,13 @@ async fn every_fault_injection_option_is_survived() {
             "merge",
             Faults {
                 merge: true,
+                ..Default::default()
+            },
+        ),
+        (
+            "a copy cut short before each answer",
+            Faults {
+                cut_frames: true,
                 ..Default::default()
             },
         ),

@@ -43,7 +43,8 @@ pub struct Anomalies {
     /// Frames that answered no outstanding request: late or unsolicited answers, and
     /// frames with a request's message ID but not its Type or Command.
     pub unsolicited: u32,
-    /// Stream errors the frame decoder skipped past: garbage, bad headers, oversized frames.
+    /// Stream errors the frame decoder skipped past: garbage, bad headers, oversized frames,
+    /// frames cut short.
     pub stream_errors: u32,
     /// Answers with optional items the robot wrote in a form that cannot be read, each
     /// read as left out.

@@ -15,8 +15,8 @@ use x30_panel::proto::frame::HEADER_LEN;
 /// V1.0.12 does not know it.
 pub const UNKNOWN_TYPE: i32 = 2102;
 
-/// Added to an answer's message ID to get the ID of the extra frame [`Faults::merge`]
-/// sends with it (wrapping at 65535).
+/// Added to an answer's message ID to get the ID of the extra frame [`Faults::merge`] or
+/// [`Faults::cut_frames`] sends with it (wrapping at 65535).
 pub const MERGED_ID_OFFSET: u16 = 0x8000;
 
 /// The bytes [`Faults::garbage`] puts before each answer frame. They contain no sync
@@ -91,6 +91,12 @@ pub struct Faults {
     /// Write each answer together with an unsolicited 1002 status answer whose message ID
     /// is the answer's plus [`MERGED_ID_OFFSET`], in one write, the answer first.
     pub merge: bool,
+    /// Put, before each answer frame, in the same write, a copy of it cut short: its
+    /// message ID is the answer's plus [`MERGED_ID_OFFSET`], and its header declares the
+    /// whole body, of which only the first half follows. A `robot_server` whose write went
+    /// out only in part, not retried: a client that reads by the declared length alone
+    /// takes the answer for the rest of the broken frame, and loses it.
+    pub cut_frames: bool,
     /// Answer with Type [`UNKNOWN_TYPE`] instead of the real Type, keeping the message ID,
     /// Command and items.
     pub unknown_type: bool,
@@ -230,15 +236,19 @@ pub fn alter_header(frame: &mut [u8], faults: &Faults) {
 }
 
 /// The bytes of one write: the frames in order (answers, and the extra frames of
-/// [`Faults::merge`]), each preceded by [`GARBAGE`] and by an empty frame with its message
-/// ID ([`Faults::empty_frames`]) if asked.
+/// [`Faults::merge`]), each preceded by [`GARBAGE`], by a copy of it cut short
+/// ([`Faults::cut_frames`]) and by an empty frame with its message ID
+/// ([`Faults::empty_frames`]) if asked.
 pub fn wire_bytes(frames: &[Vec<u8>], faults: &Faults) -> Vec<u8> {
     let garbage = if faults.garbage { GARBAGE.len() } else { 0 };
     let empty = if faults.empty_frames { HEADER_LEN } else { 0 };
-    let mut out = Vec::with_capacity(frames.iter().map(|f| garbage + empty + f.len()).sum());
+    let mut out = Vec::with_capacity(frames.iter().map(|f| garbage + empty + 2 * f.len()).sum());
     for frame in frames {
         if faults.garbage {
             out.extend_from_slice(GARBAGE);
+        }
+        if let (true, Some((header, body))) = (faults.cut_frames, frame.split_first_chunk()) {
+            out.extend_from_slice(&cut_copy(header, body));
         }
         if let (true, Some(header)) = (faults.empty_frames, frame.get(..HEADER_LEN)) {
             // The same header with a zero length: sync, length, message ID, reserved bytes.
@@ -248,6 +258,16 @@ pub fn wire_bytes(frames: &[Vec<u8>], faults: &Faults) -> Vec<u8> {
         }
         out.extend_from_slice(frame);
     }
+    out
+}
+
+/// The frame with `header` and `body`, cut short after half its body, with the message ID
+/// plus [`MERGED_ID_OFFSET`]: its header still declares the whole body.
+fn cut_copy(header: &[u8; HEADER_LEN], body: &[u8]) -> Vec<u8> {
+    let mut out = header.to_vec();
+    let id = u16::from_le_bytes([header[6], header[7]]).wrapping_add(MERGED_ID_OFFSET);
+    out.splice(6..8, id.to_le_bytes());
+    out.extend_from_slice(body.get(..body.len() / 2).unwrap_or_default());
     out
 }
 
@@ -646,6 +666,38 @@ mod tests {
         let mut empty = vec![0; HEADER_LEN];
         x30_panel::proto::frame::encode(&mut empty, 0x1234, &[]).unwrap();
         assert_eq!(bytes, [&empty[..], &frame[..n]].concat());
+    }
+
+    /// A copy cut short comes before each frame, and a client's decoder reports it as cut
+    /// short and still reads the frame after it.
+    #[test]
+    fn a_copy_cut_short_precedes_each_frame_and_the_frame_is_still_read() {
+        use x30_panel::proto::frame::{self, FrameDecoder, FrameError, Reserved};
+        let faults = Faults {
+            cut_frames: true,
+            ..Faults::default()
+        };
+        let mut whole = vec![0; HEADER_LEN + 10];
+        frame::encode(&mut whole, 0x1234, b"<answer/>\n").expect("frame");
+        let bytes = wire_bytes(&[whole.clone(), whole.clone()], &faults);
+        assert_eq!(bytes.len(), 2 * (2 * HEADER_LEN + 15));
+        let mut client = FrameDecoder::<256>::new().reserved(Reserved::Ignore);
+        assert_eq!(client.feed(&bytes), bytes.len());
+        for _ in 0..2 {
+            assert_eq!(
+                client.decode(),
+                Some(Err(FrameError::CutShort {
+                    message_id: 0x1234 + MERGED_ID_OFFSET,
+                    asdu_len: 10,
+                    received: 5
+                }))
+            );
+            let frame = client.decode().expect("a frame").expect("read");
+            assert_eq!(
+                (frame.message_id, frame.asdu),
+                (0x1234, &b"<answer/>\n"[..])
+            );
+        }
     }
 
     #[test]

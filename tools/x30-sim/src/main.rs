@@ -62,6 +62,10 @@ struct Cli {
     /// Write each answer together with an extra 1002 status frame (ID + 0x8000) in one write.
     #[arg(long)]
     merge: bool,
+    /// Put before each answer frame a copy of it cut short (ID + 0x8000; the header declares
+    /// the whole body, half of it follows), as a robot whose write went out only in part.
+    #[arg(long)]
+    cut_frames: bool,
     /// Answer with Type 2102 instead of the real Type.
     #[arg(long)]
     unknown_type: bool,
@@ -160,6 +164,7 @@ impl Cli {
                 reserved_bytes: self.reserved_bytes,
                 split: self.split.and_then(|n| usize::try_from(n).ok()),
                 merge: self.merge,
+                cut_frames: self.cut_frames,
                 unknown_type: self.unknown_type,
                 unknown_items: self.unknown_items,
                 unknown_pose: self.unknown_pose,

@@ -83,6 +83,24 @@ fn garbage_before_each_frame_is_skipped() {
     x30ctl(&sim, &["watch", "--count", "2", "--interval-ms", "10"]).expect_code(0);
 }
 
+/// A copy of each answer cut short before it (a robot whose write went out in part): the
+/// broken frame is skipped with a warning, and the answer after it is read, byte by byte too.
+#[test]
+fn a_frame_cut_short_before_each_answer_is_skipped() {
+    let sim = sim(1.0);
+    for split in [None, Some(1)] {
+        sim.set_faults(Faults {
+            cut_frames: true,
+            split,
+            ..Faults::default()
+        });
+        x30ctl(&sim, &["status"])
+            .expect_code(0)
+            .stdout_has("motion state   force-control stand (3)")
+            .stderr_has("skipped a frame cut short by the next one");
+    }
+}
+
 #[test]
 fn answers_whose_reserved_header_bytes_are_set_are_read_byte_by_byte() {
     let sim = sim(1.0);
