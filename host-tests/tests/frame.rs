@@ -11,6 +11,16 @@ fn frame(id: u16, body: &[u8]) -> Vec<u8> {
     out
 }
 
+/// What the decoder reports for frame `message_id`, declared `asdu_len` bytes long, cut short
+/// after `received` bytes of its body.
+fn cut_short(message_id: u16, asdu_len: u16, received: u16) -> Result<(u16, Vec<u8>), FrameError> {
+    Err(FrameError::CutShort {
+        message_id,
+        asdu_len,
+        received,
+    })
+}
+
 /// Feeds `bytes` in chunks of `chunk` and collects everything the decoder reports.
 fn run<const N: usize>(
     decoder: &mut FrameDecoder<N>,
@@ -204,11 +214,7 @@ fn frame_cut_short_does_not_swallow_the_next() {
         assert_eq!(
             run(&mut d, &bytes, chunk),
             vec![
-                Err(FrameError::CutShort {
-                    message_id: 1,
-                    asdu_len: 40,
-                    received: 10
-                }),
+                cut_short(1, 40, 10),
                 Ok((2, b"next".to_vec())),
                 Ok((3, b"after".to_vec())),
             ],
@@ -233,11 +239,7 @@ fn oversize_frame_cut_short_does_not_swallow_the_next() {
                     message_id: 1,
                     asdu_len: 300
                 }),
-                Err(FrameError::CutShort {
-                    message_id: 1,
-                    asdu_len: 300,
-                    received: 100
-                }),
+                cut_short(1, 300, 100),
                 Ok((2, b"next".to_vec())),
             ],
             "chunk {chunk}"
@@ -258,11 +260,7 @@ fn frame_cut_short_near_its_end_does_not_swallow_the_next() {
             assert_eq!(
                 run(&mut d, &bytes, chunk),
                 vec![
-                    Err(FrameError::CutShort {
-                        message_id: 1,
-                        asdu_len: 20,
-                        received: 20 - missing as u16
-                    }),
+                    cut_short(1, 20, 20 - missing as u16),
                     Ok((2, b"next".to_vec())),
                 ],
                 "{missing} missing, chunk {chunk}"
@@ -279,11 +277,7 @@ fn frame_cut_short_near_its_end_does_not_swallow_the_next() {
                     message_id: 3,
                     asdu_len: 100
                 }),
-                Err(FrameError::CutShort {
-                    message_id: 3,
-                    asdu_len: 100,
-                    received: 100 - missing as u16
-                }),
+                cut_short(3, 100, 100 - missing as u16),
                 Ok((4, b"next".to_vec())),
             ],
             "oversized, {missing} missing"

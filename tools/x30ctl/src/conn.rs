@@ -820,6 +820,16 @@ mod tests {
         (first, second)
     }
 
+    fn is_battery(result: &Result<Answer, Error>) -> bool {
+        matches!(
+            result,
+            Ok(Answer {
+                response: Response::Battery(_),
+                ..
+            })
+        )
+    }
+
     fn is_type_0_to(result: &Result<Answer, Error>, ty: MessageType) -> bool {
         matches!(
             result,
@@ -869,16 +879,7 @@ mod tests {
             [type_0(a.wrapping_add(b).wrapping_add(100)), battery(b)].concat()
         });
         assert!(is_type_0_to(&first, MessageType::Status), "{first:?}");
-        assert!(
-            matches!(
-                second,
-                Ok(Answer {
-                    response: Response::Battery(_),
-                    ..
-                })
-            ),
-            "{second:?}"
-        );
+        assert!(is_battery(&second), "{second:?}");
     }
 
     #[test]
@@ -912,16 +913,7 @@ mod tests {
             matches!(&first, Err(Error::BadAnswer { detail, .. }) if detail.contains("cut short after 40 of")),
             "{first:?}"
         );
-        assert!(
-            matches!(
-                second,
-                Ok(Answer {
-                    response: Response::Battery(_),
-                    ..
-                })
-            ),
-            "{second:?}"
-        );
+        assert!(is_battery(&second), "{second:?}");
     }
 
     #[test]
