@@ -345,6 +345,49 @@ fn a_refused_estop_is_repeated_until_the_robot_confirms_it() {
     finish(panel);
 }
 
+/// A robot whose writes go out only in part: a copy of each answer, cut short, comes before
+/// it. The firmware still reads every answer (a decoder going by the declared length alone
+/// would take each answer for the rest of the broken frame): its link comes up, held forward
+/// moves the robot, and the status confirms the e-stop, whose repeats then end.
+#[test]
+fn answers_behind_frames_cut_short_are_read_and_the_estop_is_confirmed() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    sim.set_faults(x30_sim::Faults {
+        cut_frames: true,
+        ..Default::default()
+    });
+    let mut panel = boot(&turn, &sim);
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+forward");
+    sleep(Duration::from_millis(1200));
+    panel.send("-forward");
+    sleep(Duration::from_millis(300));
+    let estop = sim.elapsed().as_secs_f64();
+    panel.send("+estop");
+    panel.send("-estop");
+    assert!(
+        eventually(REACTION, || sim.snapshot().motion_state
+            == MotionState::SoftEmergencyStop),
+        "the robot never reached soft e-stop\n{}",
+        log_text(&sim)
+    );
+    sleep(Duration::from_millis(1500));
+    finish(panel);
+    let log = log_text(&sim);
+    let before = motions(&sim, pressed);
+    assert!(
+        before.iter().filter(|m| m.1 == 1).count() >= 3,
+        "held forward did not move the robot\n{log}"
+    );
+    let estops = motions(&sim, estop).iter().filter(|m| m.1 == 13).count();
+    // Unconfirmed, the e-stop would repeat every 250 ms: 7 or more in these 1.5 s.
+    assert!(
+        (1..=4).contains(&estops),
+        "{estops} e-stops: the status should have confirmed the first\n{log}"
+    );
+}
+
 #[test]
 fn a_half_open_robot_gets_stops_at_once_and_the_panel_reconnects() {
     let Some(turn) = turn() else { return };
