@@ -1119,7 +1119,8 @@ proptest! {
 
     /// A stream of frames, some cut short (a sender that wrote only part of one, then the
     /// next), some too long for the decoder: each frame that fits and is whole comes out,
-    /// each cut one is reported with how much of its body came, and each oversized one as
+    /// each one cut in its body is reported with how much of its body came, each one cut in
+    /// its header (after more than its sync sequence) as garbage, and each oversized one as
     /// too long (and then as cut short, if it was): no frame after a broken one is lost.
     #[test]
     fn frames_after_frames_cut_short_are_never_lost(
@@ -1137,35 +1138,57 @@ proptest! {
             let mut expected = Vec::new();
             for (piece, cut) in pieces {
                 let mut bytes = piece.bytes();
-                let body_len = bytes.len() - HEADER_LEN;
-                let Some(received) = cut.filter(|_| body_len > 0).map(|c| c.index(body_len)) else {
+                let (message_id, asdu_len) = match piece {
+                    Piece::Fits { message_id, asdu } => (*message_id, asdu.len() as u16),
+                    Piece::Oversized { message_id, asdu_len, .. } => (*message_id, *asdu_len),
+                };
+                // Kept: more than the sync sequence, less than the whole frame.
+                let first = SYNC.len() + 1;
+                let Some(kept) = cut.map(|c| first + c.index(bytes.len() - first)) else {
                     stream.extend(bytes);
                     expected.push(piece.expected());
                     continue;
                 };
-                bytes.truncate(HEADER_LEN + received);
+                bytes.truncate(kept);
+                if kept < HEADER_LEN {
+                    // A message ID of `EB 90` would put a sync sequence in the header itself.
+                    prop_assume!(message_id != u16::from_le_bytes([0xEB, 0x90]));
+                    match expected.last_mut() {
+                        Some(Event::Error(FrameError::Garbage { skipped })) => *skipped += kept,
+                        _ => expected.push(Event::Error(FrameError::Garbage { skipped: kept })),
+                    }
+                    stream.extend(bytes);
+                    continue;
+                }
                 // A body ending in `EB 90` would make a sync sequence with the next header's
                 // first half; such a body is no UTF-8 either.
                 if bytes.ends_with(&SYNC[..2]) {
                     *bytes.last_mut().unwrap() = 0;
                 }
-                let (message_id, asdu_len) = match piece {
-                    Piece::Fits { message_id, asdu } => (*message_id, asdu.len() as u16),
-                    Piece::Oversized { message_id, asdu_len, .. } => {
-                        expected.push(piece.expected());
-                        (*message_id, *asdu_len)
-                    }
-                };
+                if let Piece::Oversized { .. } = piece {
+                    expected.push(piece.expected());
+                }
                 expected.push(Event::Error(FrameError::CutShort {
                     message_id,
                     asdu_len,
-                    received: received as u16,
+                    received: (kept - HEADER_LEN) as u16,
                 }));
                 stream.extend(bytes);
             }
             stream.extend(last.bytes());
             expected.push(last.expected());
-            prop_assert_eq!(run::<N>(&stream, plan)?, expected);
+            // Garbage may come in several reports (the decoder's choice): count it in runs.
+            let mut got: Vec<Event> = Vec::new();
+            for event in run::<N>(&stream, plan)? {
+                match (got.last_mut(), event) {
+                    (
+                        Some(Event::Error(FrameError::Garbage { skipped })),
+                        Event::Error(FrameError::Garbage { skipped: more }),
+                    ) => *skipped += more,
+                    (_, event) => got.push(event),
+                }
+            }
+            prop_assert_eq!(got, expected);
             Ok(())
         }
         check::<64>(&small, &last, &plan)?;
@@ -1193,8 +1216,8 @@ proptest! {
 
     /// A client's decoder, which ignores reserved bytes: garbage that holds no sync
     /// sequence (perhaps ending in half of one), then a frame whose reserved bytes are
-    /// anything. The decoder reports every garbage byte and then yields exactly that frame,
-    /// as if its reserved bytes were zero.
+    /// anything but a sync sequence. The decoder reports every garbage byte and then yields
+    /// exactly that frame, as if its reserved bytes were zero.
     #[test]
     fn frame_with_reserved_bytes_set_is_read_when_they_are_ignored(
         garbage in vec(sync_ish_byte(), 0..600),
@@ -1205,6 +1228,11 @@ proptest! {
         let garbage = without_sync(&[], garbage);
         let mut bytes = frame.bytes();
         bytes[8..HEADER_LEN].copy_from_slice(&reserved);
+        // Reserved bytes that make a sync sequence with the bytes around them, or end an
+        // empty frame in part of one, read as a header cut short: this property is about
+        // the others.
+        prop_assume!(find_sync(&bytes[SYNC.len()..]).is_none());
+        prop_assume!(bytes.len() > HEADER_LEN || ![0xEB, 0x90].contains(&bytes[HEADER_LEN - 1]));
         let stream = [garbage.as_slice(), &bytes].concat();
         for events in [
             run_as::<256>(Reserved::Ignore, &stream, &plan)?,

@@ -55,7 +55,7 @@ impl Display for FrameError {
             } => write!(
                 f,
                 "message {message_id}: cut short after {received} of its {asdu_len} body \
-                 bytes by the next frame, skipped"
+                 bytes, where the next frame starts; skipped"
             ),
         }
     }

@@ -18,7 +18,10 @@
 //! another `EB`; nor does it end in `EB`, `EB 90` or `EB 90 EB`. A sync sequence inside a
 //! declared body, or part of one at its end, therefore means that frame was cut short (a
 //! sender that wrote only part of it), and the next frame starts there: the decoder hands
-//! that one out rather than swallowing it as the rest of the broken body.
+//! that one out rather than swallowing it as the rest of the broken body. A sync sequence
+//! inside a header, after its own, means the header was cut short: its bytes are reported as
+//! garbage. (A whole header holds one only if its length and message ID are both 37099, or
+//! if its reserved bytes, which the document fills with zeros, hold one.)
 //!
 //! The document reserves the last eight header bytes and fills them with zeros "for now".
 //! The robot refuses a request whose reserved bytes are not zero, and so does a decoder by
@@ -359,7 +362,7 @@ impl<const N: usize> FrameDecoder<N> {
             }
             let skip = match self.overlapping_sync(pending.get(at..).unwrap_or_default()) {
                 Overlap::No => at,
-                Overlap::Later => at + 2,
+                Overlap::Later(later) => at + later,
                 Overlap::Undecided => {
                     self.advance(at);
                     self.garbage += at;
@@ -456,38 +459,54 @@ impl<const N: usize> FrameDecoder<N> {
         }
     }
 
-    /// `EB 90 EB 90 EB 90` is either a frame whose length field is `EB 90` (37099 bytes), or
-    /// garbage ending in half a sync sequence followed by a real frame two bytes later.
+    /// Whether the sync sequence at the start of `bytes` hides another in what would be its
+    /// header, where the frame really starts.
     ///
-    /// A decoder that cannot hold 37099 bytes and ignores reserved bytes takes the later
-    /// header: the earlier frame would be skipped anyway, and no answer comes near that
-    /// length. Otherwise the later header is the real one when its reserved bytes are
-    /// zero: in a genuine 37099-byte frame those positions hold the start of the XML body,
-    /// never zeros.
+    /// One after the header's own (or starting in it) means the sender cut the header
+    /// short and the next frame starts there: a whole header holds none unless its length
+    /// and message ID are both 37099 or its reserved bytes, zeros in the document, hold one.
+    ///
+    /// One two bytes in is the pattern `EB 90 EB 90 EB 90`: either a frame whose length
+    /// field is `EB 90` (37099 bytes), or garbage ending in half a sync sequence followed by
+    /// a real frame two bytes later. A decoder that cannot hold 37099 bytes and ignores
+    /// reserved bytes takes the later header: the earlier frame would be skipped anyway, and
+    /// no answer comes near that length. Otherwise the later header is the real one when its
+    /// reserved bytes are zero: in a genuine 37099-byte frame those positions hold the start
+    /// of the XML body, never zeros.
     fn overlapping_sync(&self, bytes: &[u8]) -> Overlap {
-        if bytes.get(SYNC.len()..SYNC.len() + 2) != SYNC.get(..2) {
-            return Overlap::No;
+        let head = bytes.get(2..).unwrap_or_default();
+        let head = head.get(..HEADER_LEN + 1).unwrap_or(head);
+        let found = sync_start(head);
+        let later = 2 + found;
+        if head.len() - found < SYNC.len() {
+            // Part of one ending what came of the header: the bytes after it will tell.
+            return if found < head.len() && later < HEADER_LEN {
+                Overlap::Undecided
+            } else {
+                Overlap::No
+            };
         }
-        if self.reserved == Reserved::Ignore && Self::MAX_ASDU < OVERLAP_ASDU_LEN {
-            return Overlap::Later;
+        if later > 2 || (self.reserved == Reserved::Ignore && Self::MAX_ASDU < OVERLAP_ASDU_LEN) {
+            return Overlap::Later(later);
         }
         match bytes
             .get(2..2 + HEADER_LEN)
             .and_then(|b| b.first_chunk::<HEADER_LEN>())
         {
             None => Overlap::Undecided,
-            Some(later) if Header::decode(later).is_ok() => Overlap::Later,
+            Some(header) if Header::decode(header).is_ok() => Overlap::Later(2),
             Some(_) => Overlap::No,
         }
     }
 }
 
-/// Whether a sync sequence at the start of `bytes` hides another two bytes later.
+/// Whether a sync sequence at the start of some bytes hides another in what would be its
+/// header.
 enum Overlap {
     /// Only one candidate header.
     No,
-    /// The header two bytes later is the real one.
-    Later,
+    /// The real frame starts this many bytes later.
+    Later(usize),
     /// More bytes are needed to tell.
     Undecided,
 }

@@ -15,8 +15,8 @@ use x30_panel::proto::frame::HEADER_LEN;
 /// V1.0.12 does not know it.
 pub const UNKNOWN_TYPE: i32 = 2102;
 
-/// Added to an answer's message ID to get the ID of the extra frame [`Faults::merge`] or
-/// [`Faults::cut_frames`] sends with it (wrapping at 65535).
+/// Added to an answer's message ID to get the ID of the extra frame [`Faults::merge`]
+/// sends with it (wrapping at 65535).
 pub const MERGED_ID_OFFSET: u16 = 0x8000;
 
 /// The bytes [`Faults::garbage`] puts before each answer frame. They contain no sync
@@ -91,11 +91,12 @@ pub struct Faults {
     /// Write each answer together with an unsolicited 1002 status answer whose message ID
     /// is the answer's plus [`MERGED_ID_OFFSET`], in one write, the answer first.
     pub merge: bool,
-    /// Put, before each answer frame, in the same write, a copy of it cut short: its
-    /// message ID is the answer's plus [`MERGED_ID_OFFSET`], and its header declares the
-    /// whole body, of which only the first half follows. A `robot_server` whose write went
-    /// out only in part, not retried: a client that reads by the declared length alone
-    /// takes the answer for the rest of the broken frame, and loses it.
+    /// Put, before each answer frame, in the same write, a copy of it cut short: its header
+    /// declares the whole body, of which only the first half follows. A `robot_server`
+    /// whose write went out only in part and that wrote the frame again: a client that reads
+    /// by the declared length alone takes the answer for the rest of the broken frame, and
+    /// loses it; one that takes the broken frame, which carries the answer's message ID, for
+    /// the answer fails the request.
     pub cut_frames: bool,
     /// Answer with Type [`UNKNOWN_TYPE`] instead of the real Type, keeping the message ID,
     /// Command and items.
@@ -261,12 +262,10 @@ pub fn wire_bytes(frames: &[Vec<u8>], faults: &Faults) -> Vec<u8> {
     out
 }
 
-/// The frame with `header` and `body`, cut short after half its body, with the message ID
-/// plus [`MERGED_ID_OFFSET`]: its header still declares the whole body.
+/// The frame with `header` and `body`, cut short after half its body: its header still
+/// declares the whole body.
 fn cut_copy(header: &[u8; HEADER_LEN], body: &[u8]) -> Vec<u8> {
     let mut out = header.to_vec();
-    let id = u16::from_le_bytes([header[6], header[7]]).wrapping_add(MERGED_ID_OFFSET);
-    out.splice(6..8, id.to_le_bytes());
     out.extend_from_slice(body.get(..body.len() / 2).unwrap_or_default());
     out
 }
@@ -687,7 +686,7 @@ mod tests {
             assert_eq!(
                 client.decode(),
                 Some(Err(FrameError::CutShort {
-                    message_id: 0x1234 + MERGED_ID_OFFSET,
+                    message_id: 0x1234,
                     asdu_len: 10,
                     received: 5
                 }))

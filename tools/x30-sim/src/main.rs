@@ -62,8 +62,8 @@ struct Cli {
     /// Write each answer together with an extra 1002 status frame (ID + 0x8000) in one write.
     #[arg(long)]
     merge: bool,
-    /// Put before each answer frame a copy of it cut short (ID + 0x8000; the header declares
-    /// the whole body, half of it follows), as a robot whose write went out only in part.
+    /// Put before each answer frame a copy of it cut short (the header declares the whole
+    /// body, half of it follows), as a robot whose write went out only in part.
     #[arg(long)]
     cut_frames: bool,
     /// Answer with Type 2102 instead of the real Type.

@@ -525,24 +525,22 @@ impl Connection {
                 Err(FrameError::TooLong {
                     message_id: id,
                     asdu_len,
-                }) if self.outstanding.contains(id) => self.broken_answer(
-                    id,
-                    format!(
-                        "{asdu_len}-byte body, longer than the {}-byte limit; skipped",
-                        MAX_FRAME_LEN - HEADER_LEN
-                    ),
-                ),
-                Err(FrameError::CutShort {
-                    message_id: id,
-                    asdu_len,
-                    received,
-                }) if self.outstanding.contains(id) => self.broken_answer(
-                    id,
-                    format!(
-                        "cut short after {received} of its {asdu_len} body bytes by the next \
-                         frame; skipped"
-                    ),
-                ),
+                }) if self.outstanding.contains(id) => {
+                    let ty = self.outstanding.remove(id).map_or(0, |(ty, _)| ty.raw());
+                    (
+                        id,
+                        Err(Error::BadAnswer {
+                            message_type: ty,
+                            message_id: id,
+                            detail: format!(
+                                "{asdu_len}-byte body, longer than the {}-byte limit; skipped",
+                                MAX_FRAME_LEN - HEADER_LEN
+                            ),
+                        }),
+                    )
+                }
+                // A frame cut short may be the robot's first try at an answer it then writes
+                // whole: the request goes on waiting, as the panel's does.
                 Err(e) => {
                     warn(&stream_error_text(&e));
                     continue;
@@ -554,20 +552,6 @@ impl Connection {
             self.early.push((answered, result));
         }
         None
-    }
-
-    /// Ends the wait of outstanding request `id`, whose answer could not be read whole
-    /// (`detail` says why): its message ID and the error.
-    fn broken_answer(&mut self, id: u16, detail: String) -> (u16, Result<Answer, Error>) {
-        let ty = self.outstanding.remove(id).map_or(0, |(ty, _)| ty.raw());
-        (
-            id,
-            Err(Error::BadAnswer {
-                message_type: ty,
-                message_id: id,
-                detail,
-            }),
-        )
     }
 
     /// Matches one decoded (or undecodable) frame with message ID `id` to the outstanding
@@ -707,8 +691,8 @@ pub fn stream_error_text(e: &FrameError) -> String {
             asdu_len,
             received,
         } => format!(
-            "skipped a frame cut short by the next one (message ID {message_id}, {received} of \
-             its {asdu_len} body bytes)"
+            "skipped a frame cut short (message ID {message_id}, {received} of its {asdu_len} \
+             body bytes came before the next frame's start)"
         ),
         other => format!("stream error: {other:?}"),
     }
@@ -899,18 +883,25 @@ mod tests {
         );
     }
 
-    /// The status answer cut short (its header claims more than came), then the battery's:
-    /// the status request fails at once as a bad answer, and the battery's answer, which
-    /// the broken frame's declared length would have swallowed, still arrives.
+    /// The status answer cut short (its header claims more than came), then the battery's
+    /// answer, then the status answer whole (a robot that wrote it again): both requests get
+    /// their answers, and the battery's, which the broken frame's declared length would have
+    /// swallowed, is not lost.
     #[test]
-    fn an_answer_cut_short_fails_its_request_and_the_next_answer_is_kept() {
+    fn an_answer_cut_short_is_skipped_and_the_answers_after_it_are_kept() {
         let (first, second) = two_outstanding(|a, b| {
             let mut cut = status(a);
             cut.truncate(HEADER_LEN + 40);
-            [cut, battery(b)].concat()
+            [cut, battery(b), status(a)].concat()
         });
         assert!(
-            matches!(&first, Err(Error::BadAnswer { detail, .. }) if detail.contains("cut short after 40 of")),
+            matches!(
+                first,
+                Ok(Answer {
+                    response: Response::Status(_),
+                    ..
+                })
+            ),
             "{first:?}"
         );
         assert!(is_battery(&second), "{second:?}");
