@@ -41,6 +41,16 @@ fn eventually(limit: Duration, mut cond: impl FnMut() -> bool) -> bool {
     }
 }
 
+/// Asserts that the robot reaches soft emergency stop within [`REACTION`].
+fn reaches_soft_estop(sim: &Simulator) {
+    assert!(
+        eventually(REACTION, || sim.snapshot().motion_state
+            == MotionState::SoftEmergencyStop),
+        "the robot never reached soft e-stop\n{}",
+        log_text(sim)
+    );
+}
+
 /// The log of `sim`, one request a line, for failure messages.
 fn log_text(sim: &Simulator) -> String {
     sim.requests()
@@ -326,12 +336,7 @@ fn a_refused_estop_is_repeated_until_the_robot_confirms_it() {
     let pressed = sim.elapsed().as_secs_f64();
     panel.send("+estop");
     panel.send("-estop");
-    assert!(
-        eventually(REACTION, || sim.snapshot().motion_state
-            == MotionState::SoftEmergencyStop),
-        "the robot never reached soft e-stop\n{}",
-        log_text(&sim)
-    );
+    reaches_soft_estop(&sim);
     sleep(Duration::from_millis(1000));
     let estops = motions(&sim, pressed)
         .into_iter()
@@ -366,12 +371,7 @@ fn answers_behind_frames_cut_short_are_read_and_the_estop_is_confirmed() {
     let estop = sim.elapsed().as_secs_f64();
     panel.send("+estop");
     panel.send("-estop");
-    assert!(
-        eventually(REACTION, || sim.snapshot().motion_state
-            == MotionState::SoftEmergencyStop),
-        "the robot never reached soft e-stop\n{}",
-        log_text(&sim)
-    );
+    reaches_soft_estop(&sim);
     sleep(Duration::from_millis(1500));
     finish(panel);
     let log = log_text(&sim);

@@ -804,6 +804,16 @@ mod tests {
         (first, second)
     }
 
+    fn is_status(result: &Result<Answer, Error>) -> bool {
+        matches!(
+            result,
+            Ok(Answer {
+                response: Response::Status(_),
+                ..
+            })
+        )
+    }
+
     fn is_battery(result: &Result<Answer, Error>) -> bool {
         matches!(
             result,
@@ -825,16 +835,7 @@ mod tests {
     #[test]
     fn answers_to_two_outstanding_requests_are_matched_in_any_order() {
         let (first, second) = two_outstanding(|a, b| [battery(b), status(a)].concat());
-        assert!(
-            matches!(
-                first,
-                Ok(Answer {
-                    response: Response::Status(_),
-                    ..
-                })
-            ),
-            "{first:?}"
-        );
+        assert!(is_status(&first), "{first:?}");
         assert!(
             matches!(second, Ok(Answer { response: Response::Battery(b), .. }) if b.battery_level == 42),
             "{second:?}"
@@ -844,16 +845,7 @@ mod tests {
     #[test]
     fn type_0_with_the_second_requests_id_answers_the_second_not_the_first() {
         let (first, second) = two_outstanding(|a, b| [type_0(b), status(a)].concat());
-        assert!(
-            matches!(
-                first,
-                Ok(Answer {
-                    response: Response::Status(_),
-                    ..
-                })
-            ),
-            "{first:?}"
-        );
+        assert!(is_status(&first), "{first:?}");
         assert!(is_type_0_to(&second, MessageType::Battery), "{second:?}");
     }
 
@@ -894,16 +886,7 @@ mod tests {
             cut.truncate(HEADER_LEN + 40);
             [cut, battery(b), status(a)].concat()
         });
-        assert!(
-            matches!(
-                first,
-                Ok(Answer {
-                    response: Response::Status(_),
-                    ..
-                })
-            ),
-            "{first:?}"
-        );
+        assert!(is_status(&first), "{first:?}");
         assert!(is_battery(&second), "{second:?}");
     }
 
