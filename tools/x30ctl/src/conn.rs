@@ -522,25 +522,9 @@ impl Connection {
                         None => continue,
                     }
                 }
-                Err(FrameError::TooLong {
-                    message_id: id,
-                    asdu_len,
-                }) if self.outstanding.contains(id) => {
-                    let ty = self.outstanding.remove(id).map_or(0, |(ty, _)| ty.raw());
-                    (
-                        id,
-                        Err(Error::BadAnswer {
-                            message_type: ty,
-                            message_id: id,
-                            detail: format!(
-                                "{asdu_len}-byte body, longer than the {}-byte limit; skipped",
-                                MAX_FRAME_LEN - HEADER_LEN
-                            ),
-                        }),
-                    )
-                }
-                // A frame cut short may be the robot's first try at an answer it then writes
-                // whole: the request goes on waiting, as the panel's does.
+                // A stream error is no answer, even with a request's message ID: a frame too
+                // long or cut short may be the robot's first try at an answer it then writes
+                // whole. The request goes on waiting, as the panel's does.
                 Err(e) => {
                     warn(&stream_error_text(&e));
                     continue;
@@ -888,6 +872,23 @@ mod tests {
         });
         assert!(is_status(&first), "{first:?}");
         assert!(is_battery(&second), "{second:?}");
+    }
+
+    /// A header with the request's message ID claiming far more than the limit, a few
+    /// bytes, then the answer whole: the broken frame is skipped (too long, then cut short)
+    /// and the request gets its answer.
+    #[test]
+    fn an_oversize_frame_cut_short_with_the_requests_id_is_no_answer() {
+        let addr = fake_robot(1, |ids| {
+            let mut huge = status(ids[0]);
+            huge[4..6].copy_from_slice(&60_000u16.to_le_bytes());
+            huge.truncate(HEADER_LEN + 7);
+            [huge, status(ids[0])].concat()
+        });
+        let mut conn = connect(&addr);
+        let id = conn.send(&Request::Status).expect("send");
+        let answer = wait(&mut conn, id, MessageType::Status);
+        assert!(is_status(&answer), "{answer:?}");
     }
 
     #[test]
