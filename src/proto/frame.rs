@@ -196,8 +196,9 @@ pub enum FrameError {
     },
     /// A sync sequence came before the end of a frame's declared body, or its body ended in
     /// part of one, which UTF-8 text never does: the frame was cut short, and decoding
-    /// resumes at that sync sequence (the robot's ErrorCode 3). A frame longer than the buffer, reported as
-    /// [`FrameError::TooLong`] already, is reported again if it is cut short.
+    /// resumes at that sync sequence (the robot's ErrorCode 3). A frame longer than the
+    /// buffer, reported as [`FrameError::TooLong`] already, is reported again if it is cut
+    /// short.
     CutShort {
         /// The message ID of the broken frame.
         message_id: u16,
