@@ -748,3 +748,31 @@ fn exhaustive_f32_round_trip() {
     assert_eq!(failures.load(Ordering::Relaxed), 0);
     assert_eq!(longest.load(Ordering::Relaxed), F32_TEXT_MAX as u64);
 }
+
+/// The default build's shortcuts for an item line's number, against the readers they stand
+/// in for.
+#[cfg(not(feature = "compact"))]
+mod shortcuts {
+    use proptest::prelude::*;
+    use x30_panel::proto::xml::number::{parse_int_prefix, short_int_prefix};
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(20_000))]
+
+        /// `short_int_prefix` reads one to seven digits without a sign, followed by
+        /// something other than a digit within the eight bytes it reads at once, as
+        /// `parse_int_prefix` reads them, and declines every other text.
+        #[test]
+        fn short_integers_read_as_the_prefix_reader_reads_them(
+            text in "[+-]?[0-9]{0,10}[<&a .e+-]?[0-9<]{0,8}|[\\x00-\\xff]{0,10}",
+        ) {
+            let bytes = text.as_bytes();
+            let digits = bytes.iter().take_while(|b| b.is_ascii_digit()).count();
+            let expected = match (bytes.len() >= 8, digits) {
+                (true, 1..=7) => parse_int_prefix::<i32>(bytes).map(|(v, n)| (v as u32, n)),
+                _ => None,
+            };
+            prop_assert_eq!(short_int_prefix(bytes), expected, "{:?}", text);
+        }
+    }
+}

@@ -431,3 +431,123 @@ fn runs_of_spaces_of_any_length_read_alike_by_both_paths() {
         }
     }
 }
+
+/// A status answer's item lines as robots write them, one item a line in the table's order.
+const STATUS_ITEMS: [&str; 21] = [
+    "<MotionState>4</MotionState>",
+    "<PosX>12.3456783</PosX>",
+    "<PosY>-3.21098757</PosY>",
+    "<PosZ>0.0412368812</PosZ>",
+    "<Roll>-0.00023393621</Roll>",
+    "<Pitch>0.0123587409</Pitch>",
+    "<Yaw>1.57079637</Yaw>",
+    "<Speed>0.498761237</Speed>",
+    "<CurOdom>1.23456788</CurOdom>",
+    "<SumOdom>1234.56787</SumOdom>",
+    "<Res>0.0500000007</Res>",
+    "<X0>-25.6000004</X0>",
+    "<Y0>-18.3500004</Y0>",
+    "<H>734</H>",
+    "<Electricity>87</Electricity>",
+    "<Location>0</Location>",
+    "<GaitState>0</GaitState>",
+    "<MotorState>0</MotorState>",
+    "<ChargeState>0</ChargeState>",
+    "<ControlMode>1</ControlMode>",
+    "<OnDockState>0</OnDockState>",
+];
+
+/// A status answer with `items`, indented as robots indent it.
+fn status_answer(items: &[String]) -> String {
+    let lines: String = items.iter().map(|l| format!("        {l}\n")).collect();
+    format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<PatrolDevice>\n    <Type>1002</Type>\n    \
+         <Command>1</Command>\n    <Time>2024-11-19 14:32:07</Time>\n    <Items>\n{lines}    \
+         </Items>\n</PatrolDevice>\n"
+    )
+}
+
+/// The shortcut for a block's item lines (each item the table lists next, written plainly,
+/// its number read in the pass that finds the line's end) gives exactly what the general
+/// path gives, for the lines it takes and for every line it must leave to the general path,
+/// at the block's start, in its middle and at its end: a float's, an integer's and a code's
+/// line with whitespace around the value, a sign, an exponent, C's words for a missing
+/// reading, a decimal comma, too many digits, a value out of range, an entity or a comment
+/// in the value; tags with a space, an attribute, another case, another name or none; an
+/// item out of the table's order, repeated, unknown, or left empty.
+#[test]
+fn item_lines_read_alike_by_both_paths() {
+    let values = "| 5|5 |+5|-5|5.0|5.5|.5|5.|-.5|-0.0|0.5e1|1,5|nan|-inf|0000007|1234567|12345678|\
+        2147483648|255|256|0.0000000000000001|0.000000000000000012345|123456789012345678901234|\
+        3.4028236e38|5&#x30;|<!--c-->5|1.5.5|5\t|\n5"
+        .split('|')
+        .collect::<Vec<_>>();
+    let tags = [
+        "<{n} >5</{n}>",
+        "<{n} 5</{n} 5>",
+        "<{n}55</{n}>",
+        "<{n}>5</{n} >",
+        "<{n} a=\"1\">5</{n}>",
+        "<{n}>5</Other>",
+        "<{n}/>",
+        "<{n}></{n}>",
+        "<PosX>9.5</PosX>",
+        "<H>5</H>",
+        "<Unknown>5</Unknown>",
+        "<Pos>5</Pos>",
+        "<AVeryLongUnknownItem>5</AVeryLongUnknownItem>",
+        "<!-- a comment -->",
+    ];
+    let cases = values
+        .iter()
+        .map(|value| format!("<{{n}}>{value}</{{n}}>"))
+        .chain(tags.iter().map(|tag| tag.to_string()));
+    let mut checked = 0;
+    for case in cases {
+        // The first item (a code), a float in the middle, an integer, and the last item.
+        for at in [0, 3, 13, STATUS_ITEMS.len() - 1] {
+            let name = STATUS_ITEMS[at][1..].split('>').next().unwrap_or_default();
+            let mut items: Vec<String> = STATUS_ITEMS.iter().map(|l| l.to_string()).collect();
+            items[at] = case.replace("{n}", name);
+            let document = status_answer(&items);
+            assert_eq!(
+                format!("{:?}", Response::decode(document.as_bytes())),
+                format!("{:?}", Response::decode_general(document.as_bytes())),
+                "{document}"
+            );
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 4 * (values.len() + tags.len()));
+    // A light request's colours are bytes: a value above 255 is refused by both paths.
+    let light = ["<Red>1</Red>", "<Green>2</Green>", "<Blue>3</Blue>", "<PER>0</PER>", "<LUM>50</LUM>"];
+    for value in &values {
+        for at in [0, 1, light.len() - 1] {
+            let mut items = light.map(str::to_string);
+            let name = &light[at][1..light[at].find('>').unwrap_or_default()];
+            items[at] = format!("<{name}>{value}</{name}>");
+            let document = format!(
+                "<PatrolDevice>\n  <Type>1101</Type>\n  <Command>1</Command>\n  \
+                 <Time>2024-11-19 14:32:07</Time>\n  <Items>\n    {}\n  </Items>\n</PatrolDevice>",
+                items.join("\n    ")
+            );
+            assert_eq!(
+                format!("{:?}", Request::decode(document.as_bytes())),
+                format!("{:?}", Request::decode_general(document.as_bytes())),
+                "{document}"
+            );
+        }
+    }
+    // The usual lines themselves, read by the shortcut, as the general path reads them.
+    let usual: Vec<String> = STATUS_ITEMS.iter().map(|l| l.to_string()).collect();
+    let document = status_answer(&usual);
+    let decoded = Response::decode(document.as_bytes());
+    assert_eq!(decoded, Response::decode_general(document.as_bytes()));
+    let Ok(Response::Status(status)) = decoded.map(|d| d.message) else {
+        panic!("the usual status answer reads: {document}");
+    };
+    assert_eq!(
+        (status.pos_z, status.y0, status.h, status.control_mode.map(|m| m.raw())),
+        (0.041_236_88, -18.35, Some(734), Some(1))
+    );
+}

@@ -15,6 +15,8 @@ use crate::proto::xml::Items;
 use crate::proto::xml::number;
 use crate::proto::xml::reader::Tokenizer;
 #[cfg(not(feature = "compact"))]
+use crate::proto::xml::reader::{plain_item, plain_text};
+#[cfg(not(feature = "compact"))]
 use crate::proto::xml::writer::PaddedName;
 use crate::proto::xml::writer::{DocumentWriter, ItemName, NAME_MAX, Number, WriteError};
 
@@ -525,50 +527,38 @@ fn read_block(
     let items = &mut Items::new(tokens, *done);
     let mut values = [0; MAX_ITEMS];
     // The item after the one found last: documents list items in the table's order.
+    #[cfg(not(feature = "compact"))]
     let mut next = 0;
     let mut present: Present = 0;
     let mut unreadable: Present = 0;
     // An item there twice is as its last occurrence reads: present or unreadable, not both.
-    let mut record = |index: usize, reading: u32| {
+    let record = |present: &mut Present, unreadable: &mut Present, index: usize, reading: u32| {
         let bit = 1 << index;
-        present = present & !bit | (reading & PRESENT) << index;
-        unreadable = unreadable & !bit | (reading >> 1) << index;
+        *present = *present & !bit | (reading & PRESENT) << index;
+        *unreadable = *unreadable & !bit | (reading >> 1) << index;
     };
+    #[cfg_attr(
+        feature = "compact",
+        expect(
+            clippy::while_let_loop,
+            reason = "the same loop as the default build's, which reads a run of lines first"
+        )
+    )]
     loop {
-        // The usual layout: the item the table lists next, written plainly. An integer's
-        // text is short, so it is read in the pass that finds its end; a float's text is
-        // found first (a word at a time) and parsed after, which keeps the work that the
-        // next line has to wait for short. Another item written plainly is read by the same
-        // pass, its name scanned rather than compared.
-        let item = if let Some((spec, value)) = table.item(next).zip(values.get_mut(next)) {
-            let integer = match spec.kind {
-                Kind::Float => None,
-                Kind::Int => {
-                    items.next_number(spec.name.as_bytes(), number::parse_int_prefix::<i32>)
-                }
-                Kind::Byte => items
-                    .next_number(spec.name.as_bytes(), number::parse_int_prefix::<u8>)
-                    .map(i32::from),
-            };
-            if let Some(integer) = integer {
-                *value = integer as u32;
-                record(next, PRESENT);
+        // The usual layout: the items the table lists next, each written plainly on a line
+        // of its own with a number that reads as it is, in one loop that keeps its state in
+        // registers. The first line that is anything else ends the run, and is read below.
+        #[cfg(not(feature = "compact"))]
+        if let (tokens, false) = items.parts() {
+            tokens.plain_run(|tag| {
+                let (bits, len) = plain_line(tag, table, next)?;
+                *values.get_mut(next)? = bits;
+                record(&mut present, &mut unreadable, next, PRESENT);
                 next += 1;
-                continue;
-            }
-            match items.next_plain(spec.name.as_bytes()) {
-                Some((item, true)) => {
-                    record(next, read_item(item.text, &spec, sender, value)?);
-                    next += 1;
-                    continue;
-                }
-                Some((other, false)) => Some(Ok(other)),
-                None => items.next(),
-            }
-        } else {
-            items.next()
-        };
-        let Some(item) = item else {
+                Some(len)
+            });
+        }
+        let Some(item) = items.next() else {
             break;
         };
         let item = item?;
@@ -579,8 +569,12 @@ fn read_block(
         let index = table.find(item.name);
         let known = index.and_then(|i| Some((i, table.item(i)?, values.get_mut(i)?)));
         if let Some((index, spec, value)) = known {
-            record(index, read_item(item.text, &spec, sender, value)?);
-            next = index + 1;
+            let reading = read_item(item.text, &spec, sender, value)?;
+            record(&mut present, &mut unreadable, index, reading);
+            #[cfg(not(feature = "compact"))]
+            {
+                next = index + 1;
+            }
         }
     }
     // Every item not read takes its kind's absent value, as if the robot had left it out.
@@ -606,6 +600,32 @@ fn read_block(
             ))
         }
     }
+}
+
+/// The wire value of the table's item `index` and the length of its element, if `tag` (what
+/// follows a `<`) is that item written plainly with a number as its text: an integer of up
+/// to seven digits, or a float's usual text. `None` for anything else, which the general
+/// path reads (or refuses) as it would have without this one.
+#[cfg(not(feature = "compact"))]
+#[inline(always)]
+fn plain_line(tag: &[u8], table: &Table, index: usize) -> Option<(u32, usize)> {
+    let entry = *table.entries.get(index)?;
+    // The default build pads the names, so the name's window of 16 bytes is always there.
+    let padded = table.names.get(entry.start()..)?;
+    let name = padded.get(..entry.end() - entry.start())?;
+    let head = padded.first_chunk()?;
+    let kind = entry.kind();
+    plain_item(tag, name, Some(head), |content| match kind {
+        // A float's text is found first, a word at a time, and parsed after: the next line
+        // waits only for where this one ends.
+        Kind::Float => {
+            let (text, len) = plain_text(content)?;
+            Some((number::parse_f32(text).ok()?.to_bits(), len))
+        }
+        // An integer's text is short: it is read in the pass that finds its end.
+        Kind::Int => number::short_int_prefix(content),
+        Kind::Byte => number::short_int_prefix(content).filter(|&(value, _)| value <= 0xff),
+    })
 }
 
 /// Reads one item's text into `value`; returns whether the item is present (bit 0) or was

@@ -359,39 +359,6 @@ impl<'t, 'a> Items<'t, 'a> {
         }
         Ok(())
     }
-
-    /// The next item's value if it is `name`, written plainly, with a number as text that
-    /// `read` accepts (see [`Tokenizer::simple_value`]); consumes nothing and returns `None`
-    /// otherwise.
-    #[inline]
-    pub fn next_number<T>(
-        &mut self,
-        name: &[u8],
-        read: impl FnOnce(&[u8]) -> Option<(T, usize)>,
-    ) -> Option<T> {
-        if self.done {
-            return None;
-        }
-        self.tokens.simple_value(name, read)
-    }
-
-    /// The next item if it is written plainly (`<name>text</name>`, the usual layout), and
-    /// whether it is `expected` (the item its table lists next, whose name is then compared
-    /// rather than scanned). Consumes nothing and returns `None` otherwise; [`Items::next`]
-    /// then reads whatever is there. Returns exactly what [`Items::next`] would have.
-    #[inline]
-    pub fn next_plain(&mut self, expected: &[u8]) -> Option<(Item<'a>, bool)> {
-        if self.done {
-            return None;
-        }
-        let (element, is_expected) = self.tokens.simple_element_expecting(expected)?;
-        self.tokens.take(&element);
-        let item = Item {
-            name: element.name,
-            text: Some(element.text),
-        };
-        Some((item, is_expected))
-    }
 }
 
 impl<'a> Iterator for Items<'_, 'a> {

@@ -160,37 +160,21 @@ impl<'a> Tokenizer<'a> {
     /// refuse) it. Checked by the `read_paths` fuzz target and property tests.
     pub fn simple_element(&self) -> Option<SimpleElement<'a>> {
         let (at, tag) = self.simple_start()?;
-        let name_len = run(tag, NAME_BYTE);
-        self.simple_rest(at, tag, name_len)
+        let (name, after) = tag.split_at_checked(run(tag, NAME_BYTE))?;
+        let content = after.strip_prefix(b">").filter(|_| !name.is_empty())?;
+        let (text, after) = content.split_at_checked(text_len(content)?)?;
+        Some(SimpleElement {
+            name,
+            text: text.trim_ascii(),
+            end: closed_at(at, name, text.len(), after)?,
+        })
     }
 
-    /// [`Tokenizer::simple_element`] where an element called `name` is expected (the next
-    /// item of a table, in the usual layout): if it is that element, its name is compared
-    /// rather than scanned. Returns the element and whether it is `name`.
-    #[inline]
-    pub fn simple_element_expecting(&self, name: &[u8]) -> Option<(SimpleElement<'a>, bool)> {
-        let (at, tag) = self.simple_start()?;
-        // `name>` at the start of the tag is exactly what a name scan stops at, for the
-        // names of the item tables (made of name bytes).
-        let expected = is_tag(tag, name);
-        let name_len = if expected {
-            name.len()
-        } else {
-            run(tag, NAME_BYTE)
-        };
-        Some((self.simple_rest_inline(at, tag, name_len)?, expected))
-    }
-
-    /// [`Tokenizer::simple_element_expecting`] for the expected element `name` whose text
-    /// is a short value (a number, the time), read in the same pass that finds the text's
-    /// end: `read` parses a value at the start of the text and returns it with the length
-    /// of its text. The element is taken, and the value returned, only if it is `name` and
-    /// its end tag follows that text at once. `read` must accept only text that holds no
-    /// `<` or `&` and neither starts nor ends with whitespace (digits, and the time's
-    /// separators), so the text is exactly what [`Tokenizer::simple_element_expecting`]
-    /// would have returned; and it must give for it what parsing it alone gives. Otherwise
-    /// nothing is consumed. Always inlined: once the header reader called it too, the
-    /// compiler kept one shared copy, and the item reader's loop measured slower.
+    /// [`Tokenizer::simple_element`] for the element `name` whose text is a short value
+    /// (the header's numbers and time), read by [`plain_item`] in the pass that finds the
+    /// text's end: consumes the element and returns the value, or consumes nothing.
+    /// Always inlined: once the header reader called it too, the compiler kept one shared
+    /// copy, and the item reader's loop measured slower.
     #[inline(always)]
     pub fn simple_value<T>(
         &mut self,
@@ -198,15 +182,8 @@ impl<'a> Tokenizer<'a> {
         read: impl FnOnce(&[u8]) -> Option<(T, usize)>,
     ) -> Option<T> {
         let (at, tag) = self.simple_start()?;
-        if !has_prefix(tag, name) {
-            return None;
-        }
-        let content = tag.get(name.len()..)?.strip_prefix(b">")?;
-        let (value, used) = read(content)?;
-        if used == 0 {
-            return None;
-        }
-        self.pos = closed_at(at, name, used, content.get(used..)?)?;
+        let (value, len) = plain_item(tag, name, None, read)?;
+        self.pos = at + len;
         Some(value)
     }
 
@@ -311,29 +288,29 @@ impl<'a> Tokenizer<'a> {
         Some((self.pos + at, tag))
     }
 
-    /// The rest of a simple element whose name (`name_len` bytes of `tag`) has been found.
-    fn simple_rest(&self, at: usize, tag: &'a [u8], name_len: usize) -> Option<SimpleElement<'a>> {
-        self.simple_rest_inline(at, tag, name_len)
-    }
-
-    /// [`Tokenizer::simple_rest`], inlined where an item its table expects is read (a
-    /// float's line, most of an answer): the 1002 decode measured 3 % faster for 176 bytes.
-    /// Inlined everywhere, it made the 1003 decode slower.
+    /// The shortcut for a run of elements in the usual layout, an item block's lines: after
+    /// whitespace, `line` is given what follows each `<` and returns the length of the
+    /// element it read from there (see [`plain_item`]), or `None` to end the run there.
+    #[cfg(not(feature = "compact"))]
     #[inline(always)]
-    fn simple_rest_inline(
-        &self,
-        at: usize,
-        tag: &'a [u8],
-        name_len: usize,
-    ) -> Option<SimpleElement<'a>> {
-        let (name, after) = tag.split_at_checked(name_len)?;
-        let content = after.strip_prefix(b">").filter(|_| !name.is_empty())?;
-        let (text, after) = content.split_at_checked(text_len(content)?)?;
-        Some(SimpleElement {
-            name,
-            text: text.trim_ascii(),
-            end: closed_at(at, name, text.len(), after)?,
-        })
+    pub fn plain_run(&mut self, mut line: impl FnMut(&'a [u8]) -> Option<usize>) {
+        // Inside an element, with room for an item's (as in `simple_start`).
+        if !self.shortcuts_on() || self.depth.wrapping_sub(1) >= MAX_DEPTH - 1 {
+            return;
+        }
+        let input = self.input;
+        let mut pos = self.pos;
+        while let Some(rest) = input.get(pos..) {
+            let at = skip_spaces(rest);
+            let Some(tag) = rest.get(at..).and_then(|t| t.strip_prefix(b"<")) else {
+                break;
+            };
+            let Some(len) = line(tag) else {
+                break;
+            };
+            pos += at + len;
+        }
+        self.pos = pos;
     }
 
     /// Moves past an element returned by [`Tokenizer::simple_element`].
@@ -660,6 +637,61 @@ fn text_len(bytes: &[u8]) -> Option<usize> {
     }
     let tail = bytes.get(at..)?;
     tail.iter().position(|&b| is(b, TEXT_END)).map(|i| at + i)
+}
+
+/// The value of the element `name` at `tag` (what follows its `<`) and the element's length
+/// from its `<`, if it is written plainly, `<name>text</name>`, with a text that `read`
+/// accepts. `read` parses a value at the start of the text and returns it with the length of
+/// its text; it must accept only text that holds no `<` or `&` and neither starts nor ends
+/// with whitespace (digits, a float's usual text, the time), so the text is exactly what
+/// [`Tokenizer::simple_element`] would have found; and it must give for it what parsing it
+/// alone gives. `head`, where the caller has it, is `name`'s first 16 bytes with whatever
+/// follows them, so that a name shorter than that is compared in one masked piece (the item
+/// lines of [`Tokenizer::plain_run`]).
+#[inline(always)]
+pub fn plain_item<T>(
+    tag: &[u8],
+    name: &[u8],
+    head: Option<&[u8; 16]>,
+    read: impl FnOnce(&[u8]) -> Option<(T, usize)>,
+) -> Option<(T, usize)> {
+    let n = name.len();
+    let start = head.zip(tag.first_chunk::<16>()).filter(|_| n < 16);
+    let opened = match start {
+        Some((head, start)) => same_head(start, head, n) && start.get(n) == Some(&b'>'),
+        None => is_tag(tag, name),
+    };
+    if !opened {
+        return None;
+    }
+    let content = tag.get(n + 1..)?;
+    let (value, used) = read(content)?;
+    if used == 0 {
+        return None;
+    }
+    let close = content.get(used..)?.strip_prefix(b"</")?;
+    // The end tag's name and `>` against the start tag's.
+    let closed = match (start, close.first_chunk::<16>()) {
+        (Some((_, start)), Some(close)) => same_head(close, start, n + 1),
+        _ => is_tag(close, name),
+    };
+    // '<' + name + '>' + text + '</' + name + '>'
+    closed.then_some((value, 2 * n + used + 5))
+}
+
+/// Whether the first `n` (at most 16) bytes of `a` and `b` are the same.
+#[inline(always)]
+fn same_head(a: &[u8; 16], b: &[u8; 16], n: usize) -> bool {
+    // The first byte that differs, if any, is at `n` or after it.
+    (u128::from_le_bytes(*a) ^ u128::from_le_bytes(*b)).trailing_zeros() >= 8 * n as u32
+}
+
+/// For a [`plain_item`] whose text is a float's: the text up to the first `<` or `&`.
+#[cfg(not(feature = "compact"))]
+#[inline(always)]
+pub fn plain_text(content: &[u8]) -> Option<(&[u8], usize)> {
+    let len = text_len(content)?;
+    Some((content.get(..len)?, len))
 }
 
 /// Whether `bytes` starts with `prefix`. Names of up to 16 bytes are compared as two

@@ -270,11 +270,37 @@ fn eight_digits(chunk: [u8; 8]) -> Option<u64> {
     if high | high_plus_six >> 4 != 0x3333_3333_3333_3333 {
         return None;
     }
-    // The first digit is the lowest byte: each step multiplies the lower group by its
-    // weight and adds the upper one in the same lane.
-    let pairs = (word & LOW_NIBBLES).wrapping_mul(10 << 8 | 1) >> 8;
+    Some(lanes_value(word & LOW_NIBBLES))
+}
+
+/// [`super::parse_int_prefix`] for the usual integer text, one to seven digits without a
+/// sign, with more bytes after it: its value and length, read as one word. `None` for any
+/// other text, which `parse_int_prefix` reads.
+#[inline(always)]
+pub fn short_int_prefix(text: &[u8]) -> Option<(u32, usize)> {
+    const ONES: u64 = u64::from_le_bytes([1; 8]);
+    let word = u64::from_le_bytes(*text.first_chunk::<8>()?);
+    let lanes = word ^ (ONES * u64::from(b'0'));
+    // A lane is a digit exactly when it is below 10: adding 0x76 sets the high bit of a lane
+    // of 10 to 0x7f, and only a lane at or above 0x8a carries into the next (above the
+    // first that is not a digit, which is all that counts).
+    let others = (lanes.wrapping_add(ONES * 0x76) | lanes) & (ONES << 7);
+    let len = (others.trailing_zeros() / 8) as usize;
+    if !(1..8).contains(&len) {
+        return None;
+    }
+    // The digits moved to the top lanes, zeros below: leading zeros add nothing.
+    Some((lanes_value(lanes << (64 - 8 * len)) as u32, len))
+}
+
+/// The number that eight lanes of one digit each make, the first digit in the lowest lane.
+#[inline(always)]
+fn lanes_value(lanes: u64) -> u64 {
+    // Each step multiplies the lower group by its weight and adds the upper one in the same
+    // lane.
+    let pairs = lanes.wrapping_mul(10 << 8 | 1) >> 8;
     let fours = (pairs & 0x00ff_00ff_00ff_00ff).wrapping_mul(100 << 16 | 1) >> 16;
-    Some((fours & 0x0000_ffff_0000_ffff).wrapping_mul(10_000 << 32 | 1) >> 32)
+    (fours & 0x0000_ffff_0000_ffff).wrapping_mul(10_000 << 32 | 1) >> 32
 }
 
 /// The integers `low..=high` (in units of `10^-scale`) that read back as a float, and `y`,

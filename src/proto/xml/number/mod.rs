@@ -40,6 +40,8 @@ use big::Big;
 #[cfg(not(feature = "compact"))]
 use fast::render;
 #[cfg(not(feature = "compact"))]
+pub use fast::short_int_prefix;
+#[cfg(not(feature = "compact"))]
 pub use fast::write_i32;
 #[cfg(feature = "compact")]
 use plain::render;
