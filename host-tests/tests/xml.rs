@@ -520,7 +520,13 @@ fn item_lines_read_alike_by_both_paths() {
     }
     assert_eq!(checked, 4 * (values.len() + tags.len()));
     // A light request's colours are bytes: a value above 255 is refused by both paths.
-    let light = ["<Red>1</Red>", "<Green>2</Green>", "<Blue>3</Blue>", "<PER>0</PER>", "<LUM>50</LUM>"];
+    let light = [
+        "<Red>1</Red>",
+        "<Green>2</Green>",
+        "<Blue>3</Blue>",
+        "<PER>0</PER>",
+        "<LUM>50</LUM>",
+    ];
     for value in &values {
         for at in [0, 1, light.len() - 1] {
             let mut items = light.map(str::to_string);
@@ -547,7 +553,12 @@ fn item_lines_read_alike_by_both_paths() {
         panic!("the usual status answer reads: {document}");
     };
     assert_eq!(
-        (status.pos_z, status.y0, status.h, status.control_mode.map(|m| m.raw())),
+        (
+            status.pos_z,
+            status.y0,
+            status.h,
+            status.control_mode.map(|m| m.raw())
+        ),
         (0.041_236_88, -18.35, Some(734), Some(1))
     );
 }
