@@ -276,10 +276,7 @@ impl<'a> Tokenizer<'a> {
     /// Where a simple element may start: inside an element, with room for one more level,
     /// after whitespace; the offset of its `<` and what follows it.
     fn simple_start(&self) -> Option<(usize, &'a [u8])> {
-        // Text is only allowed inside an element, and an element inside another only below
-        // the deepest level: a depth of 1 to `MAX_DEPTH - 1` (an open element means the
-        // tokenizer is inside the root), tested in one comparison.
-        if !self.shortcuts_on() || self.depth.wrapping_sub(1) >= MAX_DEPTH - 1 {
+        if !self.may_take_elements() {
             return None;
         }
         let rest = self.rest();
@@ -288,14 +285,25 @@ impl<'a> Tokenizer<'a> {
         Some((self.pos + at, tag))
     }
 
+    /// Whether the shortcuts may take a simple element here: text is only allowed inside an
+    /// element, and an element inside another only below the deepest level, so a depth of 1
+    /// to `MAX_DEPTH - 1` (an open element means the tokenizer is inside the root), tested
+    /// in one comparison.
+    #[inline(always)]
+    fn may_take_elements(&self) -> bool {
+        self.shortcuts_on() && self.depth.wrapping_sub(1) < MAX_DEPTH - 1
+    }
+
     /// The shortcut for a run of elements in the usual layout, an item block's lines: after
     /// whitespace, `line` is given what follows each `<` and returns the length of the
-    /// element it read from there (see [`plain_item`]), or `None` to end the run there.
+    /// element it read from there, or `None` to end the run there, that element left
+    /// unread. `line` must take only an element written plainly, as [`plain_item`] reads
+    /// one, so that the run consumes exactly the whitespace and elements the general path
+    /// would have read without error.
     #[cfg(not(feature = "compact"))]
     #[inline(always)]
     pub fn plain_run(&mut self, mut line: impl FnMut(&'a [u8]) -> Option<usize>) {
-        // Inside an element, with room for an item's (as in `simple_start`).
-        if !self.shortcuts_on() || self.depth.wrapping_sub(1) >= MAX_DEPTH - 1 {
+        if !self.may_take_elements() {
             return;
         }
         let input = self.input;
