@@ -562,3 +562,79 @@ fn item_lines_read_alike_by_both_paths() {
         (0.041_236_88, -18.35, Some(734), Some(1))
     );
 }
+
+/// Items no table has (a real robot's status answer carries several), written plainly, are
+/// passed over between the block's usual lines exactly as the general path passes over them;
+/// any other extra line (a known item out of order or in other case, an entity, a nested
+/// element, an attribute, an end tag that does not match) is left to the general path and
+/// read, or refused, as it reads it. Many made-up names, so that some share the unknown-name
+/// filter's bits with the table's names.
+#[test]
+fn extra_items_read_alike_by_both_paths() {
+    let made_up: Vec<String> = (0..40)
+        .map(|i| {
+            let name = format!(
+                "{}x{i}{}",
+                ["Angle", "rtk", "Cur", "Z", "map"][i % 5],
+                ["", "Yaw", "State", "E", "x"][i / 8]
+            );
+            format!("<{name}>{i}.5</{name}>")
+        })
+        .collect();
+    let extras = [
+        "<AngleYaw>1.57023621</AngleYaw>",
+        "<CurRuntime>5421.33398</CurRuntime><SumRuntime>1536792.25</SumRuntime>",
+        "<RTKState>0</RTKState>\n        <MapUpdateState>0</MapUpdateState>",
+        "<Extra></Extra>",
+        "<Extra> a text of words </Extra>",
+        "<Extra>a&amp;b</Extra>",
+        "<Extra>a&bogus;b</Extra>",
+        "<Extra>5<!--c--></Extra>",
+        "<Extra>5</Other>",
+        "<Extra>5</Extra >",
+        "<Extra >5</Extra>",
+        "<Extra a=\"1\">5</Extra>",
+        "<Extra><Sub>1</Sub></Extra>",
+        "<Extra/>",
+        "<Temp\u{e9}rature>21.5</Temp\u{e9}rature>",
+        "<AVeryLongUnknownItemName>1</AVeryLongUnknownItemName>",
+        "<posx>7.5</posx>",
+        "<PosX>7.5</PosX>",
+        "<ONDOCKSTATE>1</ONDOCKSTATE>",
+        "<Electricity>55</Electricity>",
+    ];
+    let mut checked = 0;
+    for extra in extras
+        .iter()
+        .copied()
+        .chain(made_up.iter().map(String::as_str))
+    {
+        // Before the first item, after a float, after an integer and after the last item.
+        for at in [0, 4, 14, STATUS_ITEMS.len()] {
+            let mut items: Vec<String> = STATUS_ITEMS.iter().map(|l| l.to_string()).collect();
+            items.insert(at, extra.to_string());
+            let document = status_answer(&items);
+            assert_eq!(
+                format!("{:?}", Response::decode(document.as_bytes())),
+                format!("{:?}", Response::decode_general(document.as_bytes())),
+                "{document}"
+            );
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 4 * (extras.len() + made_up.len()));
+    // The real robot's layout: its extra items passed over, every usual item read.
+    let mut items: Vec<String> = STATUS_ITEMS.iter().map(|l| l.to_string()).collect();
+    for (at, extra) in [(4, extras[0]), (11, extras[1]), (18, extras[2])] {
+        items.insert(at, extra.to_string());
+    }
+    let document = status_answer(&items);
+    let Ok(Response::Status(status)) = Response::decode(document.as_bytes()).map(|d| d.message)
+    else {
+        panic!("the answer with extra items reads: {document}");
+    };
+    assert_eq!(
+        (status.pos_z, status.roll, status.y0, status.h),
+        (0.041_236_88, -0.000_233_936_21, -18.35, Some(734))
+    );
+}

@@ -160,13 +160,11 @@ impl<'a> Tokenizer<'a> {
     /// refuse) it. Checked by the `read_paths` fuzz target and property tests.
     pub fn simple_element(&self) -> Option<SimpleElement<'a>> {
         let (at, tag) = self.simple_start()?;
-        let (name, after) = tag.split_at_checked(run(tag, NAME_BYTE))?;
-        let content = after.strip_prefix(b">").filter(|_| !name.is_empty())?;
-        let (text, after) = content.split_at_checked(text_len(content)?)?;
+        let (name, text, len) = plain_element(tag)?;
         Some(SimpleElement {
             name,
             text: text.trim_ascii(),
-            end: closed_at(at, name, text.len(), after)?,
+            end: at + len,
         })
     }
 
@@ -319,6 +317,22 @@ impl<'a> Tokenizer<'a> {
             pos += at + len;
         }
         self.pos = pos;
+    }
+
+    /// Consumes the element at the next `<` (after whitespace) if `pass` takes it: `pass` is
+    /// given what follows the `<` and returns the element's length if it is one to pass
+    /// over. Returns whether it was; otherwise consumes nothing. `pass` must take only an
+    /// element [`plain_element`] reads, one [`Tokenizer::simple_element`] would have read.
+    #[cfg(not(feature = "compact"))]
+    pub fn pass_over(&mut self, pass: impl FnOnce(&'a [u8]) -> Option<usize>) -> bool {
+        let Some((at, len)) = self
+            .simple_start()
+            .and_then(|(at, tag)| Some((at, pass(tag)?)))
+        else {
+            return false;
+        };
+        self.pos = at + len;
+        true
     }
 
     /// Moves past an element returned by [`Tokenizer::simple_element`].
@@ -683,8 +697,7 @@ pub fn plain_item<T>(
         (Some((_, start)), Some(close)) => same_head(close, start, n + 1),
         _ => is_tag(close, name),
     };
-    // '<' + name + '>' + text + '</' + name + '>'
-    closed.then_some((value, 2 * n + used + 5))
+    closed.then_some((value, element_len(n, used)))
 }
 
 /// Whether the first `n` (at most 16) bytes of `a` and `b` are the same.
@@ -725,13 +738,22 @@ fn same_name(a: &[u8], b: &[u8]) -> bool {
     a.len() == b.len() && has_prefix(a, b)
 }
 
-/// Where a simple element that starts at `at` ends, if `after` (what follows its text of
-/// `text_len` bytes) starts with its end tag `</name>` written exactly.
-#[inline(always)]
-fn closed_at(at: usize, name: &[u8], text_len: usize, after: &[u8]) -> Option<usize> {
+/// The element at `tag` (what follows its `<`) if it is written plainly, `<name>text</name>`,
+/// with a text that holds no `<` or `&`: its name, its text as written (untrimmed) and its
+/// length from its `<`. What [`Tokenizer::simple_element`] reads, wherever the element is.
+#[inline(never)]
+pub fn plain_element(tag: &[u8]) -> Option<(&[u8], &[u8], usize)> {
+    let (name, after) = tag.split_at_checked(run(tag, NAME_BYTE))?;
+    let content = after.strip_prefix(b">").filter(|_| !name.is_empty())?;
+    let (text, after) = content.split_at_checked(text_len(content)?)?;
     let close = after.strip_prefix(b"</")?;
-    // at + '<' + name + '>' + text + '</' + name + '>'
-    is_tag(close, name).then_some(at + 2 * name.len() + text_len + 5)
+    is_tag(close, name).then_some((name, text, element_len(name.len(), text.len())))
+}
+
+/// The length of `<name>text</name>` for a name and a text of these lengths.
+#[inline(always)]
+fn element_len(name_len: usize, text_len: usize) -> usize {
+    2 * name_len + text_len + 5
 }
 
 /// Whether `bytes` starts with the tag name `name` and the `>` that closes it.
