@@ -70,11 +70,7 @@ fn document_starts_read_alike_by_both_paths() {
         "<?xml?>",
     ] {
         let document = format!("{start}{body}");
-        assert_eq!(
-            format!("{:?}", Response::decode(document.as_bytes())),
-            format!("{:?}", Response::decode_general(document.as_bytes())),
-            "{document}"
-        );
+        assert_read_alike(&document);
     }
     assert_obstacle(&format!("<?xml?>\n<PatrolDevice>{body}"));
 }
@@ -112,11 +108,7 @@ fn header_lines_read_alike_by_both_paths() {
         let document = format!(
             "<PatrolDevice>\n  {a}\n  {b}\n  {c}\n  <Items><ObsState>1</ObsState></Items>\n</PatrolDevice>"
         );
-        assert_eq!(
-            format!("{:?}", Response::decode(document.as_bytes())),
-            format!("{:?}", Response::decode_general(document.as_bytes())),
-            "{document}"
-        );
+        assert_read_alike(&document);
     }
     assert_obstacle(&format!(
         "<PatrolDevice>\n  {}\n  {}\n  {}\n  <Items><ObsState>1</ObsState></Items>\n</PatrolDevice>",
@@ -422,11 +414,7 @@ fn runs_of_spaces_of_any_length_read_alike_by_both_paths() {
                 format!("{BODY}{gap}"),
                 format!("<?xml?>{gap}{BODY}"),
             ] {
-                assert_eq!(
-                    format!("{:?}", Response::decode(document.as_bytes())),
-                    format!("{:?}", Response::decode_general(document.as_bytes())),
-                    "{document:?}"
-                );
+                assert_read_alike(&document);
             }
         }
     }
@@ -456,6 +444,21 @@ const STATUS_ITEMS: [&str; 21] = [
     "<ControlMode>1</ControlMode>",
     "<OnDockState>0</OnDockState>",
 ];
+
+/// The usual status answer's item lines, to be changed and put in a document.
+fn status_items() -> Vec<String> {
+    STATUS_ITEMS.iter().map(|l| l.to_string()).collect()
+}
+
+/// Asserts that the answer `document` decodes, or fails, alike by the shortcuts and by the
+/// general path.
+fn assert_read_alike(document: &str) {
+    assert_eq!(
+        format!("{:?}", Response::decode(document.as_bytes())),
+        format!("{:?}", Response::decode_general(document.as_bytes())),
+        "{document:?}"
+    );
+}
 
 /// A status answer with `items`, indented as robots indent it.
 fn status_answer(items: &[String]) -> String {
@@ -507,14 +510,10 @@ fn item_lines_read_alike_by_both_paths() {
         // The first item (a code), a float in the middle, an integer, and the last item.
         for at in [0, 3, 13, STATUS_ITEMS.len() - 1] {
             let name = STATUS_ITEMS[at][1..].split('>').next().unwrap_or_default();
-            let mut items: Vec<String> = STATUS_ITEMS.iter().map(|l| l.to_string()).collect();
+            let mut items = status_items();
             items[at] = case.replace("{n}", name);
             let document = status_answer(&items);
-            assert_eq!(
-                format!("{:?}", Response::decode(document.as_bytes())),
-                format!("{:?}", Response::decode_general(document.as_bytes())),
-                "{document}"
-            );
+            assert_read_alike(&document);
             checked += 1;
         }
     }
@@ -545,7 +544,7 @@ fn item_lines_read_alike_by_both_paths() {
         }
     }
     // The usual lines themselves, read by the shortcut, as the general path reads them.
-    let usual: Vec<String> = STATUS_ITEMS.iter().map(|l| l.to_string()).collect();
+    let usual = status_items();
     let document = status_answer(&usual);
     let decoded = Response::decode(document.as_bytes());
     assert_eq!(decoded, Response::decode_general(document.as_bytes()));
@@ -611,20 +610,16 @@ fn extra_items_read_alike_by_both_paths() {
     {
         // Before the first item, after a float, after an integer and after the last item.
         for at in [0, 4, 14, STATUS_ITEMS.len()] {
-            let mut items: Vec<String> = STATUS_ITEMS.iter().map(|l| l.to_string()).collect();
+            let mut items = status_items();
             items.insert(at, extra.to_string());
             let document = status_answer(&items);
-            assert_eq!(
-                format!("{:?}", Response::decode(document.as_bytes())),
-                format!("{:?}", Response::decode_general(document.as_bytes())),
-                "{document}"
-            );
+            assert_read_alike(&document);
             checked += 1;
         }
     }
     assert_eq!(checked, 4 * (extras.len() + made_up.len()));
     // The real robot's layout: its extra items passed over, every usual item read.
-    let mut items: Vec<String> = STATUS_ITEMS.iter().map(|l| l.to_string()).collect();
+    let mut items = status_items();
     for (at, extra) in [(4, extras[0]), (11, extras[1]), (18, extras[2])] {
         items.insert(at, extra.to_string());
     }
