@@ -295,14 +295,17 @@ impl App<'_> {
         f(&mut self.panel.borrow_mut())
     }
 
-    /// `delay` before the next connection attempt, at most [`STOP_RETRY`] while a stop waits
-    /// to go out.
-    fn retry_delay(&self, delay: Duration) -> Duration {
-        if self.panel(|p| p.control().stop_pending()) {
+    /// When to make the next connection attempt: after `delay` (the connection's backoff),
+    /// or at most [`STOP_RETRY`] while a stop waits to go out. Logged here, with the wait
+    /// kept, not the backoff's: whoever reads the log sees when the panel tries again.
+    fn retry_at(&self, delay: Duration) -> Instant {
+        let delay = if self.panel(|p| p.control().stop_pending()) {
             delay.min(STOP_RETRY)
         } else {
             delay
-        }
+        };
+        warn!("next connection attempt in {} ms", delay.as_millis());
+        Instant::now() + delay
     }
 
     /// Closes `conn` if the robot moved since `followed` (the count of moves it follows),
@@ -398,14 +401,13 @@ impl App<'_> {
                 // A robot that reads but does not answer may still act on a stop: write
                 // what is due before giving the connection up (motion is held back).
                 self.send_due(conn, health).await;
-                retry_at = Instant::now() + self.retry_delay(conn.give_up().await);
+                retry_at = self.retry_at(conn.give_up().await);
                 self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
             }
             self.connection(ConnectionRole::Commands, state_of(health));
             if !self.send_due(conn, health).await {
-                retry_at =
-                    Instant::now() + self.retry_delay(conn.reconnect_delay(COMMANDS_STABLE_AFTER));
+                retry_at = self.retry_at(conn.reconnect_delay(COMMANDS_STABLE_AFTER));
                 self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
             }
@@ -430,8 +432,7 @@ impl App<'_> {
                 }
                 Either3::First(Err(e)) => {
                     warn!("command connection lost: {:?}", e);
-                    retry_at = Instant::now()
-                        + self.retry_delay(conn.reconnect_delay(COMMANDS_STABLE_AFTER));
+                    retry_at = self.retry_at(conn.reconnect_delay(COMMANDS_STABLE_AFTER));
                     self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 }
                 Either3::Second(()) | Either3::Third(()) => {}
@@ -483,7 +484,7 @@ impl App<'_> {
                     self.connection(role, ConnectionState::Open);
                     return true;
                 }
-                Err(retry_in) => *retry_at = Instant::now() + self.retry_delay(retry_in),
+                Err(retry_in) => *retry_at = self.retry_at(retry_in),
             }
         }
         // A button may make a stop pending meanwhile: look again then.
@@ -525,14 +526,14 @@ impl App<'_> {
                     self.panel(|p| p.poll_failed(&poll, Instant::now()));
                     if conn.health(Instant::now()) == Health::Silent {
                         warn!("the robot stopped answering polls: reconnecting");
-                        retry_at = Instant::now() + conn.give_up().await;
+                        retry_at = self.retry_at(conn.give_up().await);
                         self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
                     }
                 }
                 Err(e) => {
                     warn!("poll connection lost: {:?}", e);
                     self.panel(|p| p.poll_lost(&poll, Instant::now()));
-                    retry_at = Instant::now() + conn.reconnect_delay(STABLE_AFTER);
+                    retry_at = self.retry_at(conn.reconnect_delay(STABLE_AFTER));
                     self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
                 }
             }

@@ -215,8 +215,9 @@ impl<T: Transport> Connection<T> {
         self.anomalies
     }
 
-    /// Makes one attempt to open the connection. On failure returns how long to wait
-    /// before the next attempt, growing exponentially up to the backoff's maximum.
+    /// Makes one attempt to open the connection. On failure logs why and returns how long to
+    /// wait before the next attempt, growing exponentially up to the backoff's maximum. The
+    /// caller, which may wait less (a stop pending), logs the wait it keeps.
     pub async fn connect(&mut self) -> Result<(), Duration> {
         self.disconnect().await;
         self.attempted_at = Instant::now();
@@ -228,7 +229,10 @@ impl<T: Transport> Connection<T> {
                 info!("connected to the robot");
                 Ok(())
             }
-            Err(kind) => Err(self.retry_delay(Some(kind))),
+            Err(kind) => {
+                warn!("connection failed ({:?})", kind);
+                Err(self.backoff.next_delay())
+            }
         }
     }
 
@@ -273,7 +277,7 @@ impl<T: Transport> Connection<T> {
         if core::mem::take(&mut self.answered) {
             self.backoff.reset();
         }
-        self.retry_delay(None)
+        self.backoff.next_delay()
     }
 
     /// How long to wait before reconnecting after the connection was lost: not at all if
@@ -286,24 +290,8 @@ impl<T: Transport> Connection<T> {
             self.backoff.reset();
             Duration::from_ticks(0)
         } else {
-            self.retry_delay(None)
+            self.backoff.next_delay()
         }
-    }
-
-    /// The backoff's next delay, logged with why the connection could not be opened, if
-    /// that is the reason (a connection given up on or lost was logged by the caller, and
-    /// calling it a failed connect would mislead whoever reads the log).
-    fn retry_delay(&mut self, failure: Option<ErrorKind>) -> Duration {
-        let retry_in = self.backoff.next_delay();
-        match failure {
-            Some(kind) => warn!(
-                "connection failed ({:?}); retrying in {} ms",
-                kind,
-                retry_in.as_millis()
-            ),
-            None => warn!("next connection attempt in {} ms", retry_in.as_millis()),
-        }
-        retry_in
     }
 
     /// Whether the robot answers on this connection at `now`.
