@@ -610,8 +610,7 @@ fn read_block(
 
 /// The length of the element at `tag` (what follows a `<`) if it is an item no name of the
 /// table can be (a robot_server's extra reading), written plainly: passed over as the
-/// general path passes over it. Out of line: inlined, it made the block reader take more
-/// instructions for every line, not fewer (measured).
+/// general path passes over it.
 #[cfg(not(feature = "compact"))]
 fn unknown_line(tag: &[u8], table: &Table) -> Option<usize> {
     let (name, _, len) = plain_element(tag)?;

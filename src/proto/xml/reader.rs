@@ -741,6 +741,8 @@ fn same_name(a: &[u8], b: &[u8]) -> bool {
 /// The element at `tag` (what follows its `<`) if it is written plainly, `<name>text</name>`,
 /// with a text that holds no `<` or `&`: its name, its text as written (untrimmed) and its
 /// length from its `<`. What [`Tokenizer::simple_element`] reads, wherever the element is.
+// Out of line, one copy for `simple_element` and the block reader's pass-over: a copy
+// inlined into each saved under 1 % of a 1002 decode's instructions, for 372 bytes (measured).
 #[inline(never)]
 pub fn plain_element(tag: &[u8]) -> Option<(&[u8], &[u8], usize)> {
     let (name, after) = tag.split_at_checked(run(tag, NAME_BYTE))?;
