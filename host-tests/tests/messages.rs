@@ -1114,6 +1114,41 @@ fn motor_temperatures_1008_response() {
     assert_response_round_trip(&decoded);
 }
 
+/// A 1008 answer that leaves a motor out, or writes one with a decimal comma, still gives
+/// the others: those two read NaN, the hottest is the hottest of the rest, and an answer
+/// with no temperature at all has no hottest.
+#[test]
+fn motor_temperatures_1008_response_with_motors_left_out_or_unreadable() {
+    let document = |items: &str| {
+        format!(
+            "<?xml version='1.0' encoding='utf-8'?><PatrolDevice><Type>1008</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items>{items}</Items></PatrolDevice>"
+        )
+    };
+    let decoded = response(&document(
+        "<LeftFrontSway>31.5</LeftFrontSway><LeftFrontHip>45,5</LeftFrontHip>\
+         <RightBackHip>40</RightBackHip><RightBackKnee>39.25</RightBackKnee>",
+    ));
+    let Response::MotorTemperatures(t) = decoded.message else {
+        panic!("{decoded:?}")
+    };
+    let reported: Vec<(usize, f32)> = t
+        .all()
+        .into_iter()
+        .enumerate()
+        .filter(|(_, c)| !c.is_nan())
+        .collect();
+    assert_eq!(reported, [(0, 31.5), (10, 40.0), (11, 39.25)]);
+    assert_eq!(t.max(), 40.0);
+    assert_eq!(decoded.unreadable.to_string(), "LeftFrontHip");
+
+    let decoded = response(&document(""));
+    let Response::MotorTemperatures(t) = decoded.message else {
+        panic!("{decoded:?}")
+    };
+    assert!(t.all().iter().all(|c| c.is_nan()), "{t:?}");
+    assert!(t.max().is_nan());
+}
+
 #[test]
 fn request_error_type_0() {
     let decoded = response(
@@ -1343,8 +1378,9 @@ fn answers_may_report_nan_and_infinity_and_requests_may_not() {
     }
     let again = Response::decode(&buf[..n]).unwrap();
     assert_eq!(format!("{again:?}"), format!("{decoded:?}"), "{text}");
-    // Anything else that is not a number is no reading: an optional item holding it is not
-    // reported, a required one refuses the answer.
+    // Anything else that is not a number is no reading: an answer's item holding it is not
+    // reported, and named as unreadable (a required one refuses the answer:
+    // `an_unreadable_optional_item_in_an_answer_is_not_reported`).
     for text in ["nan1", "na", "infinit", "+-inf", "nan()"] {
         let Response::Status(status) =
             response(&STATUS_WITH_EVERY_ITEM.replace(">12.3456783<", &format!(">{text}<"))).message
@@ -1352,16 +1388,19 @@ fn answers_may_report_nan_and_infinity_and_requests_may_not() {
             panic!("not a status");
         };
         assert!(status.pos_x.is_nan(), "{text}");
-        let temperatures = format!(
+        let temperatures = response(&format!(
             "<PatrolDevice><Type>1008</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time>\
-             <Items><LeftFrontSway>{text}</LeftFrontSway></Items></PatrolDevice>"
-        );
+             <Items><LeftFrontSway>{text}</LeftFrontSway><LeftFrontHip>30</LeftFrontHip></Items>\
+             </PatrolDevice>"
+        ));
+        let Response::MotorTemperatures(t) = temperatures.message else {
+            panic!("not motor temperatures");
+        };
+        assert!(t.left_front_sway.is_nan(), "{text}");
+        assert_eq!(t.left_front_hip, 30.0, "{text}");
         assert_eq!(
-            Response::decode(temperatures.as_bytes()),
-            Err(DecodeError::BadItem {
-                item: ItemName::new("LeftFrontSway"),
-                error: NumberError::Invalid
-            }),
+            temperatures.unreadable.to_string(),
+            "LeftFrontSway",
             "{text}"
         );
     }

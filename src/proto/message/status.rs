@@ -215,32 +215,35 @@ item_set! {
 
 item_set! {
     answer
-    /// Type 1008 answer: the twelve joint motor temperatures, °C.
+    /// Type 1008 answer: the twelve joint motor temperatures, °C. A temperature the robot
+    /// leaves out, or writes in a form that cannot be read (a decimal comma, as a C library
+    /// under some locales prints it), is NaN: one unreadable motor must not cost the panel
+    /// the other eleven.
     pub struct MotorTemperatures {
         /// Left front sway (hip abduction) joint.
-        pub left_front_sway: f32 = "LeftFrontSway";
+        pub left_front_sway: f32 = "LeftFrontSway", optional;
         /// Left front hip joint.
-        pub left_front_hip: f32 = "LeftFrontHip";
+        pub left_front_hip: f32 = "LeftFrontHip", optional;
         /// Left front knee joint.
-        pub left_front_knee: f32 = "LeftFrontKnee";
+        pub left_front_knee: f32 = "LeftFrontKnee", optional;
         /// Right front sway joint.
-        pub right_front_sway: f32 = "RightFrontSway";
+        pub right_front_sway: f32 = "RightFrontSway", optional;
         /// Right front hip joint.
-        pub right_front_hip: f32 = "RightFrontHip";
+        pub right_front_hip: f32 = "RightFrontHip", optional;
         /// Right front knee joint.
-        pub right_front_knee: f32 = "RightFrontKnee";
+        pub right_front_knee: f32 = "RightFrontKnee", optional;
         /// Left back sway joint.
-        pub left_back_sway: f32 = "LeftBackSway";
+        pub left_back_sway: f32 = "LeftBackSway", optional;
         /// Left back hip joint.
-        pub left_back_hip: f32 = "LeftBackHip";
+        pub left_back_hip: f32 = "LeftBackHip", optional;
         /// Left back knee joint.
-        pub left_back_knee: f32 = "LeftBackKnee";
+        pub left_back_knee: f32 = "LeftBackKnee", optional;
         /// Right back sway joint.
-        pub right_back_sway: f32 = "RightBackSway";
+        pub right_back_sway: f32 = "RightBackSway", optional;
         /// Right back hip joint.
-        pub right_back_hip: f32 = "RightBackHip";
+        pub right_back_hip: f32 = "RightBackHip", optional;
         /// Right back knee joint.
-        pub right_back_knee: f32 = "RightBackKnee";
+        pub right_back_knee: f32 = "RightBackKnee", optional;
     }
 }
 
@@ -263,8 +266,12 @@ impl MotorTemperatures {
         ]
     }
 
-    /// The hottest motor's temperature.
+    /// The hottest motor's temperature, of those reported; NaN if none is.
     pub fn max(&self) -> f32 {
-        self.all().into_iter().fold(f32::MIN, f32::max)
+        self.all()
+            .into_iter()
+            .filter(|t| !t.is_nan())
+            .reduce(f32::max)
+            .unwrap_or(f32::NAN)
     }
 }

@@ -307,7 +307,13 @@ struct Body {
 }
 
 fn decode_body(asdu: &[u8]) -> Body {
-    let envelope = read_document(asdu, |_, _| Ok::<(), StructureError>(())).map(|(e, _)| e);
+    // How many items the document holds, to tell an itemless request from an answer.
+    let mut items = 0usize;
+    let envelope = read_document(asdu, |_, block| {
+        items += block.filter(Result::is_ok).count();
+        Ok::<(), StructureError>(())
+    })
+    .map(|(e, _)| e);
     let request = Request::decode(asdu);
     let response = Response::decode(asdu);
     // A request without items (1002, 2001, ...) also "decodes" from its answer, whose
@@ -335,11 +341,14 @@ fn decode_body(asdu: &[u8]) -> Body {
         }
         _ => None,
     };
-    let response = response.ok().map(|d| (d.time, d.message));
-    let request = request
+    let request = request.ok().map(|d| d.message);
+    // A document without items is the request, though an answer whose items are all
+    // optional (1008) reads from it too, every item left out.
+    let response = response
         .ok()
-        .map(|d| d.message)
-        .filter(|r| response.is_none() || !itemless(r));
+        .map(|d| (d.time, d.message))
+        .filter(|_| items > 0 || !request.as_ref().is_some_and(itemless));
+    let request = request.filter(|r| response.is_none() || !itemless(r));
     Body {
         envelope,
         request,

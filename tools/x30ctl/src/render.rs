@@ -131,7 +131,7 @@ pub enum AnswerItemsJson<'a> {
         /// The items.
         #[serde(flatten)]
         temperatures: &'a MotorTemperatures,
-        /// The hottest of the twelve.
+        /// The hottest of those reported (null if none is).
         max: f32,
     },
     /// Every other answer, as the core serialises it.
@@ -330,8 +330,15 @@ fn nav_status_text(s: &NavTaskState) -> String {
 }
 
 fn motors_text(m: &MotorTemperatures) -> String {
-    let leg =
-        |sway: f32, hip: f32, knee: f32| format!("sway {sway} °C, hip {hip} °C, knee {knee} °C");
+    // A temperature the robot did not report reads "unknown", as any other reading does.
+    let leg = |sway: f32, hip: f32, knee: f32| {
+        format!(
+            "sway {}, hip {}, knee {}",
+            reading(sway, "°C"),
+            reading(hip, "°C"),
+            reading(knee, "°C")
+        )
+    };
     Table::new()
         .row(
             "left front",
@@ -349,7 +356,7 @@ fn motors_text(m: &MotorTemperatures) -> String {
             "right back",
             leg(m.right_back_sway, m.right_back_hip, m.right_back_knee),
         )
-        .row("hottest", format_args!("{} °C", m.max()))
+        .row("hottest", reading(m.max(), "°C"))
         .finish()
 }
 
@@ -632,6 +639,45 @@ mod tests {
         for value in [f32::NAN, -f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
             assert_eq!(reading(value, "rad"), "unknown", "{value}");
         }
+    }
+
+    #[test]
+    fn a_motor_temperature_the_robot_does_not_report_reads_unknown() {
+        let m = MotorTemperatures {
+            left_front_sway: 31.5,
+            left_front_hip: f32::NAN,
+            left_front_knee: 33.0,
+            right_front_sway: f32::NAN,
+            right_front_hip: f32::NAN,
+            right_front_knee: f32::NAN,
+            left_back_sway: f32::NAN,
+            left_back_hip: f32::NAN,
+            left_back_knee: f32::NAN,
+            right_back_sway: f32::NAN,
+            right_back_hip: f32::NAN,
+            right_back_knee: 40.0,
+        };
+        let text = motors_text(&m);
+        assert!(
+            text.contains("sway 31.5 °C, hip unknown, knee 33 °C"),
+            "{text}"
+        );
+        assert!(text.contains("hottest        40 °C"), "{text}");
+        let none = MotorTemperatures {
+            left_front_sway: f32::NAN,
+            left_front_knee: f32::NAN,
+            right_back_knee: f32::NAN,
+            ..m
+        };
+        assert!(motors_text(&none).contains("hottest        unknown"));
+        // In JSON, a temperature not reported, and the hottest of none, are null.
+        let json = serde_json::to_string(&AnswerItemsJson::Motors {
+            temperatures: &none,
+            max: none.max(),
+        })
+        .unwrap();
+        assert!(json.contains("\"left_front_sway\":null"), "{json}");
+        assert!(json.contains("\"max\":null"), "{json}");
     }
 
     #[test]
