@@ -307,10 +307,14 @@ struct Body {
 }
 
 fn decode_body(asdu: &[u8]) -> Body {
-    // How many items the document holds, to tell an itemless request from an answer.
+    // How many items the document holds, to tell an itemless request from an answer; an
+    // item whose XML is wrong is the document's error.
     let mut items = 0usize;
     let envelope = read_document(asdu, |_, block| {
-        items += block.filter(Result::is_ok).count();
+        for item in block {
+            item?;
+            items += 1;
+        }
         Ok::<(), StructureError>(())
     })
     .map(|(e, _)| e);
@@ -609,6 +613,36 @@ mod tests {
         let len = frame::encode(&mut out, id, body).unwrap_or(0);
         out.truncate(len);
         out
+    }
+
+    #[test]
+    fn an_itemless_frame_is_the_request_and_a_bad_item_leaves_no_envelope() {
+        let document = |items: &str| {
+            format!(
+                "<PatrolDevice><Type>1008</Type><Command>1</Command>\
+                 <Time>2024-01-01 00:00:00</Time><Items>{items}</Items></PatrolDevice>"
+            )
+        };
+        // Every 1008 item is optional, so the request also reads as an answer.
+        let poll = decode_body(document("").as_bytes());
+        assert_eq!(poll.request, Some(Request::MotorTemperatures));
+        assert!(poll.response.is_none());
+        let answer = decode_body(document("<LeftFrontSway>30.5</LeftFrontSway>").as_bytes());
+        assert!(answer.request.is_none());
+        assert!(matches!(
+            answer.response,
+            Some((_, Response::MotorTemperatures(m))) if m.left_front_sway == 30.5
+        ));
+        for bad in [
+            "<LeftFrontSway>30.5</Other>",
+            "<LeftFrontSway>3&bogus;</LeftFrontSway>",
+            "<LeftFrontSway><![CDATA[1]]></LeftFrontSway>",
+            "<LeftFrontSway>30.5</LeftFrontSway><!DOCTYPE x>",
+        ] {
+            let broken = decode_body(document(bad).as_bytes());
+            assert!(broken.envelope.is_err(), "{bad}");
+            assert!(broken.error.is_some(), "{bad}");
+        }
     }
 
     #[test]
