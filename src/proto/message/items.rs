@@ -560,7 +560,7 @@ fn read_block(
             // An item no table has (a robot_server's extra reading), written plainly: passed
             // over as the general path below passes over it, and the run goes on after it.
             // Outside the run's loop: a call in that loop cost it registers (measured).
-            if tokens.pass_over(|tag| unknown_line(tag, table)) {
+            if tokens.take_element(|tag| unknown_line(tag, table)) {
                 continue;
             }
         }

@@ -345,14 +345,17 @@ fn decode_body(asdu: &[u8]) -> Body {
         }
         _ => None,
     };
-    let request = request.ok().map(|d| d.message);
-    // A document without items is the request, though an answer whose items are all
-    // optional (1008) reads from it too, every item left out.
-    let response = response
-        .ok()
-        .map(|d| (d.time, d.message))
-        .filter(|_| items > 0 || !request.as_ref().is_some_and(itemless));
-    let request = request.filter(|r| response.is_none() || !itemless(r));
+    // An itemless request also reads from its answer, and an answer whose items are all
+    // optional (1008) from its request, every item left out: the items decide which the
+    // frame is.
+    let (request, response) = match (
+        request.ok().map(|d| d.message),
+        response.ok().map(|d| (d.time, d.message)),
+    ) {
+        (Some(request), Some(_)) if itemless(&request) && items == 0 => (Some(request), None),
+        (Some(request), Some(response)) if itemless(&request) => (None, Some(response)),
+        both => both,
+    };
     Body {
         envelope,
         request,
