@@ -57,6 +57,7 @@ scripts/fuzz.sh "${X30_FUZZ_SECONDS:-30}"
 
 step "codec size"
 scripts/codec-size.sh
+scripts/codec-size.sh --parts
 
 echo
 echo "all checks passed in $SECONDS s"
