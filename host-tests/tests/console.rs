@@ -20,7 +20,7 @@ use x30_panel::panel::monitor::Stamped;
 use x30_panel::panel::{Busy, Button, ButtonEvent};
 use x30_panel::panel::{Indicators, Led};
 use x30_panel::proto::codes::MotionState;
-use x30_panel::proto::message::RobotStatus;
+use x30_panel::proto::message::{Battery, RobotStatus};
 use x30_panel::settings::desk::{self, Desk, Refused};
 use x30_panel::settings::route::MAX_ROUTE;
 use x30_panel::settings::store::{BUF_LEN, Store};
@@ -291,6 +291,30 @@ fn status_tells_the_connection_battery_motion_and_fault() {
     );
     let (_, starting) = run_line("status", &mut s, None);
     assert!(starting.contains("starting"), "{starting}");
+}
+
+#[test]
+fn status_tells_the_battery_answers_level_else_the_statuss() {
+    let mut s = Settings::new(Config::default());
+    let battery = |battery_level| Battery {
+        voltage: Some(54),
+        current: Some(-150),
+        remaining_capacity: None,
+        nominal_capacity: None,
+        cycles: None,
+        protected_state: None,
+        battery_level,
+        battery_temperature: None,
+    };
+    let with = |b: Battery| Snapshot {
+        battery: Some(Stamped::new(b, Instant::now())),
+        ..snapshot()
+    };
+    let (_, status) = run_line("status", &mut s, Some(&with(battery(Some(64)))));
+    assert!(status.contains("battery    64 %"), "{status}");
+    // A battery answer without its level: the status's.
+    let (_, status) = run_line("status", &mut s, Some(&with(battery(None))));
+    assert!(status.contains("battery    87 %"), "{status}");
 }
 
 /// A robot that is not localised reports its pose as `nan`: neither the dock nor a route

@@ -876,13 +876,13 @@ fn battery_2001_response() {
     assert_eq!(
         decoded.message,
         Response::Battery(Battery {
-            voltage: 82,
-            current: 653,
-            remaining_capacity: 1947,
-            nominal_capacity: 2004,
-            cycles: 12,
-            protected_state: ProtectedState::Normal,
-            battery_level: 97,
+            voltage: Some(82),
+            current: Some(653),
+            remaining_capacity: Some(1947),
+            nominal_capacity: Some(2004),
+            cycles: Some(12),
+            protected_state: Some(ProtectedState::Normal),
+            battery_level: Some(97),
             battery_temperature: Some(0.0),
         })
     );
@@ -898,9 +898,53 @@ fn battery_without_temperature() {
         panic!()
     };
     assert_eq!(b.battery_temperature, None);
-    assert_eq!(b.current, -120);
-    assert_eq!(b.protected_state, ProtectedState::Triggered);
+    assert_eq!(b.current, Some(-120));
+    assert_eq!(b.protected_state, Some(ProtectedState::Triggered));
     assert_response_round_trip(&decoded);
+}
+
+/// A battery answer that leaves items out, or writes one that cannot be read, still has the
+/// rest read: the protection state must not be lost with the voltage.
+#[test]
+fn battery_2001_response_with_items_left_out_or_unreadable() {
+    let document = |items: &str| {
+        format!(
+            "<PatrolDevice><Type>2001</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items>{items}</Items></PatrolDevice>"
+        )
+    };
+    let decoded = response(&document(
+        "<Voltage>5,3</Voltage><Cycles>7</Cycles><ProtectedState>1</ProtectedState>",
+    ));
+    assert_eq!(
+        decoded.message,
+        Response::Battery(Battery {
+            voltage: None,
+            current: None,
+            remaining_capacity: None,
+            nominal_capacity: None,
+            cycles: Some(7),
+            protected_state: Some(ProtectedState::Triggered),
+            battery_level: None,
+            battery_temperature: None,
+        })
+    );
+    assert_eq!(decoded.unreadable.to_string(), "Voltage");
+    // What was read is written back, and what was not is left out.
+    let mut buf = [0u8; 1024];
+    let n = decoded.message.encode(&decoded.time, &mut buf).unwrap();
+    let written = std::str::from_utf8(&buf[..n]).unwrap();
+    assert!(
+        !written.contains("Voltage") && !written.contains("Current"),
+        "{written}"
+    );
+    assert_eq!(response(written).message, decoded.message);
+
+    let decoded = response(&document("<BatteryLevel>64</BatteryLevel>"));
+    let Response::Battery(b) = decoded.message else {
+        panic!("{decoded:?}")
+    };
+    assert_eq!((b.battery_level, b.protected_state), (Some(64), None));
+    assert!(decoded.unreadable.is_empty());
 }
 
 #[test]

@@ -126,13 +126,27 @@ fn battery_protection_lights_the_fault_led() {
     let mut v = view_with(status());
     v.update(
         &Response::Battery(Battery {
-            protected_state: ProtectedState::Triggered,
+            protected_state: Some(ProtectedState::Triggered),
             ..battery()
         }),
         at(50),
     );
     assert_eq!(fault(&v, at(100)), Some(Fault::BatteryProtection));
     assert_eq!(fault_led(LinkState::Connected, &v, false, at(100)), Led::On);
+}
+
+#[test]
+fn battery_protection_counts_from_an_answer_that_leaves_the_rest_out() {
+    // A robot that reports the protection and no reading that can be read beside it.
+    let answer = Response::decode(
+        b"<PatrolDevice><Type>2001</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time>\
+          <Items><Voltage>5,3</Voltage><ProtectedState>1</ProtectedState></Items></PatrolDevice>",
+    )
+    .expect("the readable items are read");
+    let mut v = RobotView::new(&Config::default());
+    v.update(&Response::Status(status()), at(0));
+    v.update(&answer.message, at(50));
+    assert_eq!(fault(&v, at(100)), Some(Fault::BatteryProtection));
 }
 
 #[test]

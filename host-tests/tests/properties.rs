@@ -318,7 +318,13 @@ fn response() -> impl Strategy<Value = Response> {
                 MotionAck { value, result: CommandResult::from_raw(result) },
             )
         }),
-        2 => (uniform4(any_i32()), any_i32(), raw_code(), any_i32(), proptest::option::of(reading_f32()))
+        2 => (
+            uniform4(proptest::option::of(any_i32())),
+            proptest::option::of(any_i32()),
+            proptest::option::of(raw_code()),
+            proptest::option::of(any_i32()),
+            proptest::option::of(reading_f32()),
+        )
             .prop_map(|([voltage, current, remaining_capacity, nominal_capacity], cycles, protected, battery_level, battery_temperature)| {
                 Response::Battery(Battery {
                     voltage,
@@ -326,7 +332,7 @@ fn response() -> impl Strategy<Value = Response> {
                     remaining_capacity,
                     nominal_capacity,
                     cycles,
-                    protected_state: ProtectedState::from_raw(protected),
+                    protected_state: protected.map(ProtectedState::from_raw),
                     battery_level,
                     battery_temperature,
                 })

@@ -71,13 +71,13 @@ fn status() -> RobotStatus {
 /// A battery at 76 %, 31.5 °C.
 fn battery() -> Battery {
     Battery {
-        voltage: 52,
-        current: -150,
-        remaining_capacity: 3100,
-        nominal_capacity: 4000,
-        cycles: 12,
-        protected_state: ProtectedState::Normal,
-        battery_level: 76,
+        voltage: Some(52),
+        current: Some(-150),
+        remaining_capacity: Some(3100),
+        nominal_capacity: Some(4000),
+        cycles: Some(12),
+        protected_state: Some(ProtectedState::Normal),
+        battery_level: Some(76),
         battery_temperature: Some(31.5),
     }
 }
@@ -292,6 +292,8 @@ fn answers_not_received_and_items_not_sent_are_null() {
         battery: Some(Stamped::new(
             Battery {
                 battery_temperature: None,
+                voltage: None,
+                protected_state: None,
                 ..battery()
             },
             T0,
@@ -311,6 +313,9 @@ fn answers_not_received_and_items_not_sent_are_null() {
         assert_eq!(j[answer], Value::Null, "{answer}");
     }
     assert_eq!(j["battery"]["BatteryTemperature"], Value::Null);
+    assert_eq!(j["battery"]["Voltage"], Value::Null);
+    assert_eq!(j["battery"]["ProtectedState"], Value::Null);
+    assert_eq!(j["battery"]["text"]["ProtectedState"], "not reported");
     assert_eq!(j["battery"]["BatteryLevel"], 76);
     assert_eq!(j["busy"], Value::Null);
 }
@@ -451,13 +456,13 @@ fn largest(code: i32) -> Snapshot {
         on_dock_state: Some(OnDockState::from_raw(code)),
     };
     let battery = Battery {
-        voltage: i32::MIN,
-        current: i32::MIN,
-        remaining_capacity: i32::MIN,
-        nominal_capacity: i32::MIN,
-        cycles: i32::MIN,
-        protected_state: ProtectedState::from_raw(code),
-        battery_level: i32::MIN,
+        voltage: Some(i32::MIN),
+        current: Some(i32::MIN),
+        remaining_capacity: Some(i32::MIN),
+        nominal_capacity: Some(i32::MIN),
+        cycles: Some(i32::MIN),
+        protected_state: Some(ProtectedState::from_raw(code)),
+        battery_level: Some(i32::MIN),
         battery_temperature: Some(f),
     };
     let motors = MotorTemperatures {
@@ -485,7 +490,7 @@ fn largest(code: i32) -> Snapshot {
     };
     view.update(&Response::Status(faulty), T0);
     let protected = Battery {
-        protected_state: ProtectedState::Triggered,
+        protected_state: Some(ProtectedState::Triggered),
         ..self::battery()
     };
     view.update(&Response::Battery(protected), T0);

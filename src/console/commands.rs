@@ -251,7 +251,9 @@ fn status(
     match (&s.status, &s.battery) {
         (Some(status), battery) if !status.value.is_unavailable() => {
             // The battery answer's level, else the status's; a robot may report neither.
-            let level = battery.map_or(status.value.electricity, |b| Some(b.value.battery_level));
+            let level = battery
+                .and_then(|b| b.value.battery_level)
+                .or(status.value.electricity);
             let _ = match level {
                 Some(level) => writeln!(answer, "battery    {level} %"),
                 None => writeln!(answer, "battery    {NOT_REPORTED}"),

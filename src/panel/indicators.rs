@@ -162,7 +162,7 @@ pub fn faults(view: &RobotView, now: Instant) -> impl Iterator<Item = Fault> {
         |active: fn(&RobotStatus) -> bool, fault| status.filter(|s| active(s)).map(|_| fault);
     let protection = view
         .battery(now)
-        .filter(|b| b.protected_state == ProtectedState::Triggered)
+        .filter(|b| b.protected_state == Some(ProtectedState::Triggered))
         .map(|_| Fault::BatteryProtection);
     [
         from_status(|s| s.motion_state == MotionState::Fallen, Fault::Fallen),

@@ -305,7 +305,9 @@ impl Shown for RobotStatus {
 }
 
 impl Shown for Battery {
-    const WORDS: &'static [Word<Self>] = &[("ProtectedState", |b| b.protected_state.description())];
+    const WORDS: &'static [Word<Self>] = &[("ProtectedState", |b| {
+        reported_description(b.protected_state)
+    })];
 }
 
 impl Shown for MotorTemperatures {

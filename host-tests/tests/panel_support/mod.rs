@@ -139,13 +139,13 @@ pub fn status_in(motion_state: MotionState) -> RobotStatus {
 /// A healthy battery answer.
 pub fn battery() -> Battery {
     Battery {
-        voltage: 54,
-        current: -150,
-        remaining_capacity: 2400,
-        nominal_capacity: 3000,
-        cycles: 42,
-        protected_state: ProtectedState::Normal,
-        battery_level: 80,
+        voltage: Some(54),
+        current: Some(-150),
+        remaining_capacity: Some(2400),
+        nominal_capacity: Some(3000),
+        cycles: Some(42),
+        protected_state: Some(ProtectedState::Normal),
+        battery_level: Some(80),
         battery_temperature: Some(31.5),
     }
 }

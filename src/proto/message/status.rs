@@ -184,21 +184,26 @@ fn round(v: f32) -> Option<i32> {
 item_set! {
     answer
     /// Type 2001 answer: battery state.
+    ///
+    /// Every item is optional, as in the status (1002): a robot that leaves one out, or
+    /// writes one that cannot be read, still has the rest read, the missing integer or
+    /// code `None`. So one unreadable reading never costs the panel the battery's
+    /// protection state.
     pub struct Battery {
         /// Voltage, V.
-        pub voltage: i32 = "Voltage";
+        pub voltage: Option<i32> = "Voltage", optional;
         /// Current, in units of 10 mA.
-        pub current: i32 = "Current";
+        pub current: Option<i32> = "Current", optional;
         /// Remaining capacity, in units of 10 mAh.
-        pub remaining_capacity: i32 = "RemainingCapacity";
+        pub remaining_capacity: Option<i32> = "RemainingCapacity", optional;
         /// Nominal capacity, in units of 10 mAh.
-        pub nominal_capacity: i32 = "NominalCapacity";
+        pub nominal_capacity: Option<i32> = "NominalCapacity", optional;
         /// Charge cycles.
-        pub cycles: i32 = "Cycles";
+        pub cycles: Option<i32> = "Cycles", optional;
         /// Whether the battery's protection has triggered.
-        pub protected_state: ProtectedState = "ProtectedState";
+        pub protected_state: Option<ProtectedState> = "ProtectedState", optional;
         /// Charge, %.
-        pub battery_level: i32 = "BatteryLevel";
+        pub battery_level: Option<i32> = "BatteryLevel", optional;
         /// Temperature, °C; absent before protocol V1.0.11.
         pub battery_temperature: Option<f32> = "BatteryTemperature", optional;
     }

@@ -334,6 +334,33 @@ async fn check_page(
     if mark != json!("same page") {
         return Err(format!("the status page was loaded again (mark {mark})"));
     }
+    // A battery answer without its level: the page shows the status's, and says so.
+    text_until(
+        client,
+        "#battery-source",
+        PAGE_SHOWS,
+        || {},
+        |t| t.contains("2001"),
+    )
+    .await?;
+    sim.update_faults(|f| f.leave_out = vec!["BatteryLevel".into()]);
+    text_until(
+        client,
+        "#battery-source",
+        PAGE_SHOWS,
+        || {},
+        |t| t.contains("1002"),
+    )
+    .await?;
+    text_until(
+        client,
+        "#battery-level",
+        PAGE_SHOWS,
+        || hold_battery(sim, 58.4),
+        |t| shows_number(t, 58),
+    )
+    .await?;
+    sim.update_faults(|f| f.leave_out.clear());
 
     // Without a PIN the settings are read-only, and the page says how to set one.
     client

@@ -109,6 +109,8 @@ pub struct Faults {
     /// Leave every item but [`SPARSE_STATUS_ITEM`] out of status answers: a robot that
     /// reports less than the document lists.
     pub sparse_status: bool,
+    /// Leave the items of these names out of every answer: a robot that lacks a reading.
+    pub leave_out: Vec<String>,
     /// Write every decimal point in answers' items as a comma (`12,345678`), as the C
     /// library of a robot_server that runs under a locale such as `de_DE` prints floats.
     pub decimal_comma: bool,
@@ -206,7 +208,16 @@ const SINGLE_DECLARATION: &[u8] = b"<?xml version='1.0' encoding='utf-8'?>";
 pub fn alter_body(body: &[u8], faults: &Faults) -> Vec<u8> {
     let mut body = body.to_vec();
     if faults.sparse_status && find(&body, b"<Type>1002</Type>").is_some() {
-        body = keep_one_item(&body, SPARSE_STATUS_ITEM);
+        let kept = format!("<{SPARSE_STATUS_ITEM}>");
+        body = keep_items(&body, |line| find(line, kept.as_bytes()).is_some());
+    }
+    if !faults.leave_out.is_empty() {
+        let left_out: Vec<String> = faults.leave_out.iter().map(|n| format!("<{n}>")).collect();
+        body = keep_items(&body, |line| {
+            left_out
+                .iter()
+                .all(|tag| find(line, tag.as_bytes()).is_none())
+        });
     }
     if faults.unknown_items {
         body = insert_unknown_items(&body);
@@ -354,15 +365,14 @@ fn decimal_commas(body: &[u8]) -> Vec<u8> {
     out
 }
 
-/// Leaves out every item line of the first `<Items>` block but `name`'s.
-fn keep_one_item(body: &[u8], name: &str) -> Vec<u8> {
+/// Keeps, of the item lines of the first `<Items>` block, those `keep` takes.
+fn keep_items(body: &[u8], keep: impl Fn(&[u8]) -> bool) -> Vec<u8> {
     let Some(ItemsBlock { head, lines, tail }) = items_block(body) else {
         return body.to_vec();
     };
-    let kept = format!("<{name}>");
     let mut out = head.to_vec();
     for piece in lines {
-        if !piece.contains(&b'<') || find(piece, kept.as_bytes()).is_some() {
+        if !piece.contains(&b'<') || keep(piece) {
             out.extend_from_slice(piece);
         }
     }
@@ -459,18 +469,23 @@ mod tests {
         assert!("triple".parse::<Declaration>().is_err());
     }
 
+    /// A battery answer with every item.
+    fn battery() -> Battery {
+        Battery {
+            voltage: Some(55),
+            current: Some(800),
+            remaining_capacity: Some(1800),
+            nominal_capacity: Some(2004),
+            cycles: Some(12),
+            protected_state: Some(x30_panel::proto::codes::ProtectedState::Normal),
+            battery_level: Some(90),
+            battery_temperature: Some(28.5),
+        }
+    }
+
     #[test]
     fn unknown_items_sit_between_the_documented_ones_and_are_skipped() {
-        let battery = Response::Battery(Battery {
-            voltage: 55,
-            current: 800,
-            remaining_capacity: 1800,
-            nominal_capacity: 2004,
-            cycles: 12,
-            protected_state: x30_panel::proto::codes::ProtectedState::Normal,
-            battery_level: 90,
-            battery_temperature: Some(28.5),
-        });
+        let battery = Response::Battery(battery());
         let faults = Faults {
             unknown_items: true,
             ..Faults::default()
@@ -564,6 +579,49 @@ mod tests {
             ..Faults::default()
         };
         assert_eq!(alter_body(&encode(&ack()), &only_sparse), encode(&ack()));
+    }
+
+    #[test]
+    fn items_left_out_are_missing_from_every_answer_and_the_panel_reads_the_rest() {
+        let faults = Faults {
+            leave_out: vec![
+                "BatteryLevel".into(),
+                "Voltage".into(),
+                "Electricity".into(),
+            ],
+            ..Faults::default()
+        };
+        let altered = alter_body(&encode(&Response::Battery(battery())), &faults);
+        let xml = text(&altered);
+        assert!(
+            !xml.contains("BatteryLevel") && !xml.contains("Voltage"),
+            "{xml}"
+        );
+        assert_eq!(
+            Response::decode(&altered).unwrap().message,
+            Response::Battery(Battery {
+                battery_level: None,
+                voltage: None,
+                ..battery()
+            })
+        );
+        let status = RobotStatus {
+            electricity: Some(87),
+            ..RobotStatus::UNAVAILABLE
+        };
+        let altered = alter_body(&encode(&Response::Status(status)), &faults);
+        let Response::Status(read) = Response::decode(&altered).unwrap().message else {
+            panic!("{}", text(&altered));
+        };
+        assert_eq!(
+            read,
+            RobotStatus {
+                electricity: None,
+                ..status
+            }
+        );
+        // An answer without those items is left as it is.
+        assert_eq!(alter_body(&encode(&ack()), &faults), encode(&ack()));
     }
 
     #[test]

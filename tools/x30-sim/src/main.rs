@@ -79,6 +79,10 @@ struct Cli {
     /// Leave every item but MotionState out of status answers.
     #[arg(long)]
     sparse_status: bool,
+    /// Leave the item NAME out of every answer (repeatable, or names separated by commas):
+    /// a robot that lacks that reading.
+    #[arg(long, value_name = "NAME", value_delimiter = ',')]
+    leave_out: Vec<String>,
     /// Write floats in answers with a decimal comma (`12,345678`), as a robot under a
     /// locale such as de_DE would.
     #[arg(long)]
@@ -169,6 +173,7 @@ impl Cli {
                 unknown_items: self.unknown_items,
                 unknown_pose: self.unknown_pose,
                 sparse_status: self.sparse_status,
+                leave_out: self.leave_out.clone(),
                 decimal_comma: self.decimal_comma,
                 declaration: self.declaration.into(),
             },

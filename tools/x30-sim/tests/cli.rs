@@ -63,6 +63,28 @@ fn prints_its_address_and_serves() {
 }
 
 #[test]
+fn leaves_out_the_items_named() {
+    let (_running, addr) = spawn(&[
+        "--leave-out",
+        "BatteryLevel,Voltage",
+        "--leave-out",
+        "Cycles",
+    ]);
+    let mut client = Client::connect(addr);
+    client.send(&Request::Battery);
+    let (_, body) = client.recv_frame_within(TIMEOUT).expect("an answer");
+    let Response::Battery(b) = Response::decode(&body).unwrap().message else {
+        panic!("{}", String::from_utf8_lossy(&body));
+    };
+    assert_eq!(
+        (b.battery_level, b.voltage, b.cycles),
+        (None, None, None),
+        "{b:?}"
+    );
+    assert!(b.protected_state.is_some() && b.current.is_some(), "{b:?}");
+}
+
+#[test]
 fn refuses_bad_arguments() {
     for args in [
         &["--time-scale", "0"][..],

@@ -754,13 +754,13 @@ mod tests {
         answer_frame(
             id,
             &Response::Battery(Battery {
-                voltage: 55,
-                current: 120,
-                remaining_capacity: 1500,
-                nominal_capacity: 2004,
-                cycles: 3,
-                protected_state: x30_panel::proto::codes::ProtectedState::Normal,
-                battery_level: 42,
+                voltage: Some(55),
+                current: Some(120),
+                remaining_capacity: Some(1500),
+                nominal_capacity: Some(2004),
+                cycles: Some(3),
+                protected_state: Some(x30_panel::proto::codes::ProtectedState::Normal),
+                battery_level: Some(42),
                 battery_temperature: None,
             }),
         )
@@ -821,7 +821,7 @@ mod tests {
         let (first, second) = two_outstanding(|a, b| [battery(b), status(a)].concat());
         assert!(is_status(&first), "{first:?}");
         assert!(
-            matches!(second, Ok(Answer { response: Response::Battery(b), .. }) if b.battery_level == 42),
+            matches!(second, Ok(Answer { response: Response::Battery(b), .. }) if b.battery_level == Some(42)),
             "{second:?}"
         );
     }

@@ -400,25 +400,33 @@ fn motion_ack_text(code: MotionCommandCode, ack: &MotionAck) -> String {
 fn battery_text(b: &Battery) -> String {
     let temperature = match b.battery_temperature {
         Some(t) => format!("{t} °C"),
-        None => "not reported".to_owned(),
+        None => NOT_REPORTED.to_owned(),
+    };
+    // Amperes and ampere-hours from the robot's units of 10 mA and 10 mAh.
+    let hundredths = |value: Option<i32>, unit: &str| {
+        value.map_or_else(
+            || NOT_REPORTED.to_owned(),
+            |v| format!("{} {unit}", f64::from(v) / 100.0),
+        )
+    };
+    let current = match b.current {
+        Some(current) => format!("{} ({current} x 10 mA)", hundredths(b.current, "A")),
+        None => NOT_REPORTED.to_owned(),
     };
     Table::new()
-        .row("level", format_args!("{} %", b.battery_level))
-        .row("voltage", format_args!("{} V", b.voltage))
-        .row(
-            "current",
-            format_args!("{} A ({} x 10 mA)", f64::from(b.current) / 100.0, b.current),
-        )
+        .row("level", reported_int(b.battery_level, " %"))
+        .row("voltage", reported_int(b.voltage, " V"))
+        .row("current", current)
         .row(
             "capacity",
             format_args!(
-                "{} Ah remaining of {} Ah nominal",
-                f64::from(b.remaining_capacity) / 100.0,
-                f64::from(b.nominal_capacity) / 100.0
+                "remaining {}, nominal {}",
+                hundredths(b.remaining_capacity, "Ah"),
+                hundredths(b.nominal_capacity, "Ah")
             ),
         )
-        .row("cycles", b.cycles)
-        .row("protection", code_text(b.protected_state))
+        .row("cycles", reported_int(b.cycles, ""))
+        .row("protection", reported_code_text(b.protected_state))
         .row("temperature", temperature)
         .finish()
 }
@@ -681,6 +689,35 @@ mod tests {
     }
 
     #[test]
+    fn a_battery_reading_the_robot_does_not_report_reads_not_reported() {
+        let b = Battery {
+            voltage: None,
+            current: Some(-120),
+            remaining_capacity: None,
+            nominal_capacity: Some(2004),
+            cycles: None,
+            protected_state: Some(ProtectedState::Triggered),
+            battery_level: None,
+            battery_temperature: None,
+        };
+        let text = battery_text(&b);
+        for row in [
+            "level          not reported",
+            "voltage        not reported",
+            "current        -1.2 A (-120 x 10 mA)",
+            "capacity       remaining not reported, nominal 20.04 Ah",
+            "cycles         not reported",
+            "protection     protection triggered (1)",
+        ] {
+            assert!(text.contains(row), "{row:?} in\n{text}");
+        }
+        // In JSON, an item not reported is null.
+        let json = json_line(&b);
+        assert!(json.contains("\"voltage\":null"), "{json}");
+        assert!(json.contains("\"battery_level\":null"), "{json}");
+    }
+
+    #[test]
     fn a_map_image_the_robot_does_not_report_reads_unknown() {
         let reported = RobotStatus {
             motion_state: MotionState::ForceControlStand,
@@ -724,13 +761,13 @@ mod tests {
     #[test]
     fn items_codes_and_times_read_back_from_their_json() {
         let battery = Battery {
-            voltage: 58,
-            current: -120,
-            remaining_capacity: 1803,
-            nominal_capacity: 2004,
-            cycles: 12,
-            protected_state: ProtectedState::from_raw(7),
-            battery_level: 90,
+            voltage: Some(58),
+            current: Some(-120),
+            remaining_capacity: Some(1803),
+            nominal_capacity: Some(2004),
+            cycles: Some(12),
+            protected_state: Some(ProtectedState::from_raw(7)),
+            battery_level: Some(90),
             battery_temperature: None,
         };
         let json = json_line(&battery);

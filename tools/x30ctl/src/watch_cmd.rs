@@ -169,10 +169,10 @@ fn status_fields(s: &RobotStatus) -> String {
 
 fn battery_fields(b: &Battery) -> String {
     format!(
-        " battery={}% voltage={}V protection={:?}",
-        b.battery_level,
-        b.voltage,
-        b.protected_state.description()
+        " battery={} voltage={} protection={:?}",
+        reported_int(b.battery_level, "%"),
+        reported_int(b.voltage, "V"),
+        reported_description(b.protected_state)
     )
 }
 

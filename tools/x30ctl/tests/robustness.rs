@@ -237,6 +237,25 @@ fn a_status_with_motion_state_alone_is_shown_with_the_rest_not_reported() {
 }
 
 #[test]
+fn a_battery_answer_without_some_items_is_shown_with_them_not_reported() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        leave_out: vec!["Voltage".into(), "BatteryLevel".into()],
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["battery"])
+        .expect_code(0)
+        .stdout_has("level          not reported")
+        .stdout_has("voltage        not reported")
+        .stdout_has("protection     normal (0)");
+    let run = x30ctl(&sim, &["battery", "--json"]);
+    let battery = &run.expect_code(0).json_lines()[0];
+    assert!(battery["voltage"].is_null(), "{battery}");
+    assert!(battery["battery_level"].is_null(), "{battery}");
+    assert!(battery["cycles"].is_i64(), "{battery}");
+}
+
+#[test]
 fn a_status_written_with_decimal_commas_is_shown_with_a_warning_naming_the_items() {
     let sim = sim(1.0);
     sim.set_faults(Faults {
@@ -398,7 +417,7 @@ fn unsolicited_and_garbled_frames_before_the_answer_are_skipped() {
             &Response::Battery(battery()),
         ));
         let mut real = battery();
-        real.battery_level = 33;
+        real.battery_level = Some(33);
         bytes.extend_from_slice(&encode_response(id, &Response::Battery(real)));
         bytes
     });
@@ -422,7 +441,7 @@ fn empty_frames_before_the_answer_are_passed_over_whatever_their_message_id() {
             bytes.extend_from_slice(&empty);
         }
         let mut real = battery();
-        real.battery_level = 52;
+        real.battery_level = Some(52);
         bytes.extend_from_slice(&encode_response(id, &Response::Battery(real)));
         bytes
     });
@@ -451,7 +470,7 @@ fn motion_answer_without_its_value_echo_is_read() {
 fn answer_whose_reserved_header_bytes_are_set_is_read() {
     let addr = fake_robot(|id| {
         let mut real = battery();
-        real.battery_level = 41;
+        real.battery_level = Some(41);
         let mut bytes = encode_response(id, &Response::Battery(real));
         bytes[8..HEADER_LEN].copy_from_slice(&[1, 2, 3, 4, 5, 6, 7, 8]);
         bytes
@@ -463,13 +482,13 @@ fn answer_whose_reserved_header_bytes_are_set_is_read() {
 
 fn battery() -> x30_panel::proto::message::Battery {
     x30_panel::proto::message::Battery {
-        voltage: 55,
-        current: 120,
-        remaining_capacity: 1500,
-        nominal_capacity: 2004,
-        cycles: 3,
-        protected_state: x30_panel::proto::codes::ProtectedState::Normal,
-        battery_level: 75,
+        voltage: Some(55),
+        current: Some(120),
+        remaining_capacity: Some(1500),
+        nominal_capacity: Some(2004),
+        cycles: Some(3),
+        protected_state: Some(x30_panel::proto::codes::ProtectedState::Normal),
+        battery_level: Some(75),
         battery_temperature: Some(31.5),
     }
 }

@@ -114,21 +114,21 @@ impl Power {
         let fraction = self.level / 100.0;
         let (empty, full) = VOLTAGE_RANGE;
         Battery {
-            voltage: (empty + (full - empty) * fraction).round() as i32,
-            current: if self.charging {
+            voltage: Some((empty + (full - empty) * fraction).round() as i32),
+            current: Some(if self.charging {
                 -1000
             } else {
                 self.load.current()
-            },
-            remaining_capacity: (f64::from(NOMINAL_CAPACITY) * fraction).round() as i32,
-            nominal_capacity: NOMINAL_CAPACITY,
-            cycles: CYCLES,
-            protected_state: if self.level <= 0.0 {
+            }),
+            remaining_capacity: Some((f64::from(NOMINAL_CAPACITY) * fraction).round() as i32),
+            nominal_capacity: Some(NOMINAL_CAPACITY),
+            cycles: Some(CYCLES),
+            protected_state: Some(if self.level <= 0.0 {
                 ProtectedState::Triggered
             } else {
                 ProtectedState::Normal
-            },
-            battery_level: self.percent(),
+            }),
+            battery_level: Some(self.percent()),
             battery_temperature: Some(self.temperature as f32),
         }
     }
@@ -149,10 +149,10 @@ mod tests {
         assert!((power.level() - 89.5).abs() < 1e-9);
         power.advance(10.0, Load::Moving, false);
         assert!((power.level() - 87.5).abs() < 1e-9);
-        assert!(power.message().current > 0);
+        assert!(power.message().current > Some(0));
         power.advance(10.0, Load::Lying, true);
         assert!((power.level() - 90.0).abs() < 1e-9);
-        assert!(power.message().current < 0);
+        assert!(power.message().current.is_some_and(|current| current < 0));
         power.advance(1000.0, Load::Lying, true);
         assert_eq!(power.percent(), 100);
     }
@@ -162,11 +162,14 @@ mod tests {
         let mut power = Power::new(50.0);
         power.set_level(f64::NAN);
         let battery = power.message();
-        assert_eq!(battery.battery_level, 50);
-        assert_eq!(battery.remaining_capacity, 1002);
-        assert_eq!(battery.voltage, 53);
-        assert_eq!(battery.protected_state, ProtectedState::Normal);
+        assert_eq!(battery.battery_level, Some(50));
+        assert_eq!(battery.remaining_capacity, Some(1002));
+        assert_eq!(battery.voltage, Some(53));
+        assert_eq!(battery.protected_state, Some(ProtectedState::Normal));
         power.set_level(-3.0);
-        assert_eq!(power.message().protected_state, ProtectedState::Triggered);
+        assert_eq!(
+            power.message().protected_state,
+            Some(ProtectedState::Triggered)
+        );
     }
 }
