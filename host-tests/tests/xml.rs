@@ -399,15 +399,16 @@ fn tokenizer_yields_the_structure() {
     );
 }
 
-/// The shortcuts skip whitespace a run of spaces at a time; whatever the run's length
-/// (shorter or longer than the eight bytes skipped at once, or cut by a tab or the input's
-/// end), and whatever byte ends it, they read what the general path reads.
+/// The shortcuts skip whitespace a run of spaces at a time, with the line end or tab before
+/// it; whatever the run's length (shorter or longer than the eight bytes skipped at once, or
+/// cut by a tab or the input's end), whatever comes before it, and whatever byte ends it,
+/// they read what the general path reads.
 #[test]
 fn runs_of_spaces_of_any_length_read_alike_by_both_paths() {
-    for spaces in 0..=19 {
+    for (spaces, before) in (0..=19).flat_map(|n| ["", "\n", "\r\n", "\t"].map(|b| (n, b))) {
         let run = " ".repeat(spaces);
         for after in ["", "\t", "\t ", "x", "\n", "\r\n"] {
-            let gap = format!("{run}{after}");
+            let gap = format!("{before}{run}{after}");
             for document in [
                 BODY.replace("><", &format!(">{gap}<")),
                 BODY.replacen("><", &format!(">{gap}<"), 1),

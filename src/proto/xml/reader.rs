@@ -621,24 +621,26 @@ fn run(bytes: &[u8], classes: u8) -> usize {
 }
 
 /// Length of the whitespace at the start of `bytes`; a run of spaces (indentation) is
-/// skipped up to eight bytes at a time.
+/// skipped up to eight bytes at a time, with the whitespace byte (a line end) before it.
 fn skip_spaces(bytes: &[u8]) -> usize {
     const SPACES: u64 = u64::from_le_bytes([b' '; 8]);
     let mut at = 0;
     loop {
         match bytes.get(at) {
-            Some(b' ') => {
-                // A run of spaces, up to eight at a time: the first other byte is the
+            Some(&b) if is(b, SPACE_BYTE) => {
+                // The spaces after it, up to eight at a time: the first other byte is the
                 // lowest nonzero byte of the word XOR eight spaces.
-                at += match bytes.get(at..at + 8).and_then(|w| w.try_into().ok()) {
-                    Some(word) => match u64::from_le_bytes(word) ^ SPACES {
-                        0 => 8,
-                        others => (others.trailing_zeros() / 8) as usize,
-                    },
-                    None => 1,
+                let from = at + 1;
+                at = match bytes.get(from..from + 8).and_then(|w| w.try_into().ok()) {
+                    Some(word) => {
+                        from + match u64::from_le_bytes(word) ^ SPACES {
+                            0 => 8,
+                            others => (others.trailing_zeros() / 8) as usize,
+                        }
+                    }
+                    None => from,
                 };
             }
-            Some(&b) if is(b, SPACE_BYTE) => at += 1,
             _ => return at,
         }
     }
