@@ -361,6 +361,36 @@ async fn check_page(
     )
     .await?;
     sim.update_faults(|f| f.leave_out.clear());
+    text_until(
+        client,
+        "#battery-source",
+        PAGE_SHOWS,
+        || {},
+        |t| t.contains("2001"),
+    )
+    .await?;
+    // An answer as old as the panel allows is greyed out: the page's own drawing of the
+    // panel's JSON, with the battery answer marked stale, as it is after four missed polls.
+    let drawn = client
+        .execute_async(
+            "const done = arguments[arguments.length - 1];
+             fetch('/api/status').then(r => r.json()).then(d => {
+                 d.battery.stale = true;
+                 show(d);
+                 done(document.getElementById('battery').className);
+             }, e => done('no status: ' + e));",
+            vec![],
+        )
+        .await
+        .map_err(fail("draw a stale battery answer"))?;
+    if !drawn
+        .as_str()
+        .is_some_and(|classes| classes.contains("stale"))
+    {
+        return Err(format!(
+            "a stale battery answer is not marked stale: class {drawn}"
+        ));
+    }
 
     // Without a PIN the settings are read-only, and the page says how to set one.
     client
