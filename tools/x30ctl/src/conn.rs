@@ -53,8 +53,9 @@ pub fn decoder() -> Box<Decoder> {
 /// Requests one connection may have written and not seen answered; beyond this the oldest
 /// is given up on. Only `move` and `estop` send before the last answer is in: `move` stops
 /// while an answer is overdue (two or three requests at 4 Hz), and `estop` reconnects
-/// after 2 s of silence (nine requests), so this is ample.
-const MAX_OUTSTANDING: usize = 16;
+/// after at most 8 s of silence (33 requests: a Command 13 every 250 ms and one status),
+/// so this is ample.
+const MAX_OUTSTANDING: usize = 40;
 
 /// Message IDs of requests given up on that are remembered, so their late answers are
 /// skipped quietly; older ones, if they ever come, are reported as unsolicited.

@@ -848,6 +848,21 @@ fn estop_is_repeated_while_the_answers_are_late() {
 }
 
 #[test]
+fn estop_is_confirmed_by_a_robot_that_answers_every_request_late() {
+    // Every answer 2.5 s late: later than the first connection waits before it is given up.
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        delay: Duration::from_millis(2500),
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["--timeout-ms", "15000", "estop"])
+        .expect_code(0)
+        .stderr_has("the robot has not answered for 2000 ms: reconnecting (waiting 4000 ms")
+        .stdout_has("confirmed: the robot reports soft emergency stop (MotionState 6)");
+    assert_eq!(sim.snapshot().motion_state, MotionState::SoftEmergencyStop);
+}
+
+#[test]
 fn estop_to_a_silent_robot_is_repeated_then_reported_unconfirmed() {
     // A robot that reads every request and answers none.
     let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
