@@ -61,14 +61,19 @@ pub fn code_text<T: Code>(value: T) -> String {
     format!("{} ({})", value.description(), value.raw())
 }
 
+/// An item the robot may leave out: its `text`, or [`NOT_REPORTED`].
+fn reported<T>(value: Option<T>, text: impl FnOnce(T) -> String) -> String {
+    value.map_or_else(|| NOT_REPORTED.to_owned(), text)
+}
+
 /// A coded item the robot may leave out: [`code_text`], or [`NOT_REPORTED`].
 pub fn reported_code_text<T: Code>(value: Option<T>) -> String {
-    value.map_or_else(|| NOT_REPORTED.to_owned(), code_text)
+    reported(value, code_text)
 }
 
 /// An integer item the robot may leave out, with its unit, or [`NOT_REPORTED`].
 pub fn reported_int(value: Option<i32>, unit: &str) -> String {
-    value.map_or_else(|| NOT_REPORTED.to_owned(), |v| format!("{v}{unit}"))
+    reported(value, |v| format!("{v}{unit}"))
 }
 
 // ---------------------------------------------------------------------------------------
@@ -398,36 +403,32 @@ fn motion_ack_text(code: MotionCommandCode, ack: &MotionAck) -> String {
 }
 
 fn battery_text(b: &Battery) -> String {
-    let temperature = match b.battery_temperature {
-        Some(t) => format!("{t} °C"),
-        None => NOT_REPORTED.to_owned(),
-    };
     // Amperes and ampere-hours from the robot's units of 10 mA and 10 mAh.
-    let hundredths = |value: Option<i32>, unit: &str| {
-        value.map_or_else(
-            || NOT_REPORTED.to_owned(),
-            |v| format!("{} {unit}", f64::from(v) / 100.0),
-        )
-    };
-    let current = match b.current {
-        Some(current) => format!("{} ({current} x 10 mA)", hundredths(b.current, "A")),
-        None => NOT_REPORTED.to_owned(),
-    };
+    let hundredths = |value: i32, unit: &str| format!("{} {unit}", f64::from(value) / 100.0);
+    let capacity = |value: Option<i32>| reported(value, |v| hundredths(v, "Ah"));
     Table::new()
         .row("level", reported_int(b.battery_level, " %"))
         .row("voltage", reported_int(b.voltage, " V"))
-        .row("current", current)
+        .row(
+            "current",
+            reported(b.current, |c| {
+                format!("{} ({c} x 10 mA)", hundredths(c, "A"))
+            }),
+        )
         .row(
             "capacity",
             format_args!(
                 "remaining {}, nominal {}",
-                hundredths(b.remaining_capacity, "Ah"),
-                hundredths(b.nominal_capacity, "Ah")
+                capacity(b.remaining_capacity),
+                capacity(b.nominal_capacity)
             ),
         )
         .row("cycles", reported_int(b.cycles, ""))
         .row("protection", reported_code_text(b.protected_state))
-        .row("temperature", temperature)
+        .row(
+            "temperature",
+            reported(b.battery_temperature, |t| format!("{t} °C")),
+        )
         .finish()
 }
 
