@@ -26,6 +26,14 @@ fn response(xml: &str) -> Decoded<Response> {
     Response::decode(xml.as_bytes()).unwrap_or_else(|e| panic!("{e:?} decoding\n{xml}"))
 }
 
+/// A document of `message_type` with `items` in its block, without a declaration.
+fn document(message_type: u16, items: &str) -> String {
+    format!(
+        "<PatrolDevice><Type>{message_type}</Type><Command>1</Command>\
+         <Time>2023-01-01 00:00:00</Time><Items>{items}</Items></PatrolDevice>"
+    )
+}
+
 /// Encodes the decoded message and decodes it again: it must come back equal.
 fn assert_request_round_trip(decoded: &Decoded<Request>) {
     let mut buf = [0u8; 4096];
@@ -243,9 +251,7 @@ fn status_all_zero_is_unavailable() {
     .iter()
     .map(|n| format!("<{n}>0</{n}>"))
     .collect();
-    let xml = format!(
-        "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items>{items}</Items></PatrolDevice>"
-    );
+    let xml = document(1002, &items);
     let Response::Status(s) = response(&xml).message else {
         panic!()
     };
@@ -322,12 +328,7 @@ fn status_missing_items_keeps_the_others() {
 /// it, and a request item written so is refused.
 #[test]
 fn an_unreadable_optional_item_in_an_answer_is_not_reported() {
-    let status = |items: &str| {
-        format!(
-            "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time>\
-             <Items>{items}</Items></PatrolDevice>"
-        )
-    };
+    let status = |items: &str| document(1002, items);
     let unreadable = status(
         "<MotionState>6</MotionState><PosX>12,345678</PosX><PosY>-nan(ind)</PosY><PosZ></PosZ>\
          <Roll/><Pitch><Value>1</Value></Pitch><Yaw>1.5</Yaw><H>4294967295</H><Electricity>87</Electricity>\
@@ -693,10 +694,9 @@ fn motion_request_value_in_any_case() {
 #[test]
 fn an_item_there_twice_reads_as_its_last_occurrence() {
     let status = |items: &str| {
-        format!(
-            "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time>\
-             <Items><MotionState>0</MotionState>{items}<Electricity>87</Electricity></Items>\
-             </PatrolDevice>"
+        document(
+            1002,
+            &format!("<MotionState>0</MotionState>{items}<Electricity>87</Electricity>"),
         )
     };
     for decode in [Response::decode, Response::decode_general] {
@@ -907,12 +907,8 @@ fn battery_without_temperature() {
 /// rest read: the protection state must not be lost with the voltage.
 #[test]
 fn battery_2001_response_with_items_left_out_or_unreadable() {
-    let document = |items: &str| {
-        format!(
-            "<PatrolDevice><Type>2001</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items>{items}</Items></PatrolDevice>"
-        )
-    };
     let decoded = response(&document(
+        2001,
         "<Voltage>5,3</Voltage><Cycles>7</Cycles><ProtectedState>1</ProtectedState>",
     ));
     assert_eq!(
@@ -939,7 +935,7 @@ fn battery_2001_response_with_items_left_out_or_unreadable() {
     );
     assert_eq!(response(written).message, decoded.message);
 
-    let decoded = response(&document("<BatteryLevel>64</BatteryLevel>"));
+    let decoded = response(&document(2001, "<BatteryLevel>64</BatteryLevel>"));
     let Response::Battery(b) = decoded.message else {
         panic!("{decoded:?}")
     };
@@ -1017,9 +1013,9 @@ fn light_1101_request_and_response() {
 #[test]
 fn answers_may_write_an_integer_item_as_a_whole_float() {
     let status = |electricity: &str, motion: &str| {
-        format!(
-            "<PatrolDevice><Type>1002</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items>\
-             <MotionState>{motion}</MotionState><Electricity>{electricity}</Electricity></Items></PatrolDevice>"
+        document(
+            1002,
+            &format!("<MotionState>{motion}</MotionState><Electricity>{electricity}</Electricity>"),
         )
     };
     for (electricity, motion, expected) in [
@@ -1145,7 +1141,8 @@ fn motor_temperatures_1008_response() {
         .map(|(i, n)| format!("<{n}>{}.5</{n}>", 30 + i))
         .collect();
     let decoded = response(&format!(
-        "<?xml version='1.0' encoding='utf-8'?><PatrolDevice><Type>1008</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items>{items}</Items></PatrolDevice>"
+        "<?xml version='1.0' encoding='utf-8'?>{}",
+        document(1008, &items)
     ));
     let Response::MotorTemperatures(t) = decoded.message else {
         panic!()
@@ -1163,12 +1160,13 @@ fn motor_temperatures_1008_response() {
 /// with no temperature at all has no hottest.
 #[test]
 fn motor_temperatures_1008_response_with_motors_left_out_or_unreadable() {
-    let document = |items: &str| {
+    let temperatures = |items: &str| {
         format!(
-            "<?xml version='1.0' encoding='utf-8'?><PatrolDevice><Type>1008</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time><Items>{items}</Items></PatrolDevice>"
+            "<?xml version='1.0' encoding='utf-8'?>{}",
+            document(1008, items)
         )
     };
-    let decoded = response(&document(
+    let decoded = response(&temperatures(
         "<LeftFrontSway>31.5</LeftFrontSway><LeftFrontHip>45,5</LeftFrontHip>\
          <RightBackHip>40</RightBackHip><RightBackKnee>39.25</RightBackKnee>",
     ));
@@ -1185,7 +1183,7 @@ fn motor_temperatures_1008_response_with_motors_left_out_or_unreadable() {
     assert_eq!(t.max(), 40.0);
     assert_eq!(decoded.unreadable.to_string(), "LeftFrontHip");
 
-    let decoded = response(&document(""));
+    let decoded = response(&temperatures(""));
     let Response::MotorTemperatures(t) = decoded.message else {
         panic!("{decoded:?}")
     };
@@ -1432,10 +1430,9 @@ fn answers_may_report_nan_and_infinity_and_requests_may_not() {
             panic!("not a status");
         };
         assert!(status.pos_x.is_nan(), "{text}");
-        let temperatures = response(&format!(
-            "<PatrolDevice><Type>1008</Type><Command>1</Command><Time>2023-01-01 00:00:00</Time>\
-             <Items><LeftFrontSway>{text}</LeftFrontSway><LeftFrontHip>30</LeftFrontHip></Items>\
-             </PatrolDevice>"
+        let temperatures = response(&document(
+            1008,
+            &format!("<LeftFrontSway>{text}</LeftFrontSway><LeftFrontHip>30</LeftFrontHip>"),
         ));
         let Response::MotorTemperatures(t) = temperatures.message else {
             panic!("not motor temperatures");
@@ -1448,17 +1445,11 @@ fn answers_may_report_nan_and_infinity_and_requests_may_not() {
             "{text}"
         );
     }
-    let envelope = |message_type: &str, items: &str| {
-        format!(
-            "<PatrolDevice><Type>{message_type}</Type><Command>1</Command>\
-             <Time>2023-01-01 00:00:00</Time><Items>{items}</Items></PatrolDevice>"
-        )
-    };
     let requests = [
-        (envelope("2", "<Value>nan</Value>"), ItemName::new("Value")),
+        (document(2, "<Value>nan</Value>"), ItemName::new("Value")),
         (
-            envelope(
-                "2101",
+            document(
+                2101,
                 "<PosX>1</PosX><PosY>inf</PosY><PosZ>0</PosZ><Yaw>0</Yaw>",
             ),
             ItemName::new("PosY"),

@@ -183,6 +183,18 @@ fn hold_battery(sim: &Simulator, percent: f64) {
     sim.robot(|r| r.set_battery(percent));
 }
 
+/// Waits until the page says the battery level it shows came from the answer of `message_type`.
+async fn battery_source_shows(client: &Client, message_type: &str) -> Result<String, String> {
+    text_until(
+        client,
+        "#battery-source",
+        PAGE_SHOWS,
+        || {},
+        |t| t.contains(message_type),
+    )
+    .await
+}
+
 /// Fills the settings form with `speed-forward` and the PIN, submits it, and returns the
 /// text of the page that answers.
 async fn post_speed(client: &Client, speed: &str, pin: &str) -> Result<String, String> {
@@ -335,23 +347,9 @@ async fn check_page(
         return Err(format!("the status page was loaded again (mark {mark})"));
     }
     // A battery answer without its level: the page shows the status's, and says so.
-    text_until(
-        client,
-        "#battery-source",
-        PAGE_SHOWS,
-        || {},
-        |t| t.contains("2001"),
-    )
-    .await?;
+    battery_source_shows(client, "2001").await?;
     sim.update_faults(|f| f.leave_out = vec!["BatteryLevel".into()]);
-    text_until(
-        client,
-        "#battery-source",
-        PAGE_SHOWS,
-        || {},
-        |t| t.contains("1002"),
-    )
-    .await?;
+    battery_source_shows(client, "1002").await?;
     text_until(
         client,
         "#battery-level",
@@ -361,14 +359,7 @@ async fn check_page(
     )
     .await?;
     sim.update_faults(|f| f.leave_out.clear());
-    text_until(
-        client,
-        "#battery-source",
-        PAGE_SHOWS,
-        || {},
-        |t| t.contains("2001"),
-    )
-    .await?;
+    battery_source_shows(client, "2001").await?;
     // An answer as old as the panel allows is greyed out: the page's own drawing of the
     // panel's JSON, with the battery answer marked stale, as it is after four missed polls.
     let drawn = client
