@@ -183,6 +183,22 @@ fn hold_battery(sim: &Simulator, percent: f64) {
     sim.robot(|r| r.set_battery(percent));
 }
 
+/// Holds the simulated battery just above `percent` until the page shows that level.
+async fn battery_level_shows(
+    client: &Client,
+    sim: &Simulator,
+    percent: i32,
+) -> Result<String, String> {
+    text_until(
+        client,
+        "#battery-level",
+        PAGE_SHOWS,
+        || hold_battery(sim, f64::from(percent) + 0.4),
+        |t| shows_number(t, percent),
+    )
+    .await
+}
+
 /// Waits until the page says the battery level it shows came from the answer of `message_type`.
 async fn battery_source_shows(client: &Client, message_type: &str) -> Result<String, String> {
     text_until(
@@ -309,14 +325,7 @@ async fn check_page(
         .goto(&format!("{base}/"))
         .await
         .map_err(fail("open /"))?;
-    text_until(
-        client,
-        "#battery-level",
-        PAGE_SHOWS,
-        || hold_battery(sim, 73.4),
-        |t| shows_number(t, 73),
-    )
-    .await?;
+    battery_level_shows(client, sim, 73).await?;
     if let Some(file) = std::env::var_os("X30_WEB_SCREENSHOT") {
         let png = client.screenshot().await.map_err(fail("screenshot"))?;
         std::fs::write(&file, png).map_err(|e| format!("{}: {e}", file.to_string_lossy()))?;
@@ -331,14 +340,7 @@ async fn check_page(
         .execute("window.x30Mark = 'same page';", vec![])
         .await
         .map_err(fail("mark the page"))?;
-    text_until(
-        client,
-        "#battery-level",
-        PAGE_SHOWS,
-        || hold_battery(sim, 41.4),
-        |t| shows_number(t, 41),
-    )
-    .await?;
+    battery_level_shows(client, sim, 41).await?;
     let mark = client
         .execute("return window.x30Mark;", vec![])
         .await
@@ -350,14 +352,7 @@ async fn check_page(
     battery_source_shows(client, "2001").await?;
     sim.update_faults(|f| f.leave_out = vec!["BatteryLevel".into()]);
     battery_source_shows(client, "1002").await?;
-    text_until(
-        client,
-        "#battery-level",
-        PAGE_SHOWS,
-        || hold_battery(sim, 58.4),
-        |t| shows_number(t, 58),
-    )
-    .await?;
+    battery_level_shows(client, sim, 58).await?;
     sim.update_faults(|f| f.leave_out.clear());
     battery_source_shows(client, "2001").await?;
     // An answer as old as the panel allows is greyed out: the page's own drawing of the
