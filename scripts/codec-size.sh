@@ -23,12 +23,10 @@ build() {
     cargo build --release --quiet --target "$target" --target-dir "$dir" --features "$1"
     echo "$dir/$target/release/x30-codec-size"
 }
-# text+rodata are flash; data is flash and RAM; bss is RAM.
-size_of() {
-    local elf
-    elf=$(build "$1")
-    llvm-size -A "$elf" 2>/dev/null || size -A "$elf"
-}
+# The section sizes of the binary "$1": text+rodata are flash; data is flash and RAM; bss
+# is RAM.
+sections() { llvm-size -A "$1" 2>/dev/null || size -A "$1"; }
+size_of() { sections "$(build "$1")"; }
 sum() { awk -v want="$1" '$1 ~ want { s += $2 } END { print s + 0 }'; }
 flash() { echo "$1" | sum '^\.(text|rodata|data)$'; }
 ram() { echo "$1" | sum '^\.(data|bss)$'; }
@@ -45,7 +43,7 @@ parts() {
         split($1, f, ":"); gsub(/^ +/, "", f[1]); print "0x" f[1], gsub(/[0-9a-f][0-9a-f]/, "", f[2])
     }' > "$sizes"
     {
-        echo "sections $(flash "$(size_of "$1")")"
+        echo "sections $(flash "$(sections "$elf")")"
         cut -d' ' -f1 "$sizes" | llvm-addr2line -e "$elf" -a -i
         echo "--- constants"
         nm -t d -S -C "$elf" | awk '$3 ~ /^[rRdD]$/'
