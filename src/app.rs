@@ -8,9 +8,9 @@
 //! - the **button** loop hands each debounced event to the panel the moment it arrives;
 //! - the **command** loop writes what the panel asks for on the command connection without
 //!   waiting for earlier answers, so a stop goes on the wire at once whatever is pending;
-//!   it matches the answers as they come, gives up on requests after [`REQUEST_TIMEOUT`],
-//!   holds motion back while answers are overdue, and reconnects when the robot falls
-//!   silent;
+//!   it matches the answers as they come, gives up on requests after
+//!   [`REQUEST_TIMEOUT`](crate::client::REQUEST_TIMEOUT) (longer for a slow robot), holds
+//!   motion back while answers are overdue, and reconnects when the robot falls silent;
 //! - the **poll** loop asks for the robot's state on a connection of its own, one request
 //!   at a time, so a robot slow to answer polls never holds a command back;
 //! - the **navigation** loop opens the navigation connection for each task, sends its 1003
@@ -53,8 +53,6 @@ use crate::proto::message::{
 
 /// How many button events may wait for the application.
 pub const BUTTON_QUEUE: usize = 16;
-/// How long a command or poll may wait for its answer before it counts as failed.
-pub const REQUEST_TIMEOUT: Duration = Duration::from_millis(1500);
 /// Longest sleep of a loop without an event: keeps the progress counter moving.
 pub const IDLE: Duration = Duration::from_millis(500);
 /// Longest wait between connection attempts while a stop waits to go out: the stop path
@@ -386,7 +384,7 @@ impl App<'_> {
                 continue;
             }
             let now = Instant::now();
-            while let Some((id, sent)) = conn.expire(now, REQUEST_TIMEOUT) {
+            while let Some((id, sent)) = conn.expire(now, conn.request_timeout()) {
                 warn!(
                     "no answer to Type {} Command {} (message {})",
                     sent.message_type.raw(),
@@ -413,7 +411,7 @@ impl App<'_> {
             }
             let deadline = [
                 self.panel(|p| p.command_deadline()),
-                conn.expiry(REQUEST_TIMEOUT),
+                conn.expiry(conn.request_timeout()),
                 conn.health_deadline(now),
             ]
             .into_iter()
@@ -519,7 +517,7 @@ impl App<'_> {
                 select(self.wake_polls.wait(), Timer::at(due.min(now + IDLE))).await;
                 continue;
             };
-            match conn.request(&poll, Some(REQUEST_TIMEOUT)).await {
+            match conn.request(&poll, Some(conn.request_timeout())).await {
                 Ok(response) => self.polled(conn, &response),
                 Err(e) if e.connection_usable() => {
                     warn!("poll failed: {:?}", e);

@@ -12,7 +12,8 @@ use std::io::{Read as _, Write as _};
 use std::net::{TcpListener, TcpStream};
 use std::thread;
 use x30_panel::client::{
-    ANSWER_OVERDUE, Backoff, ClientError, Connection, Health, SILENT_AFTER, STABLE_AFTER,
+    ANSWER_OVERDUE, Backoff, ClientError, Connection, Health, MAX_DOUBLINGS, REQUEST_TIMEOUT,
+    SILENT_AFTER, STABLE_AFTER,
 };
 use x30_panel::proto::codes::*;
 use x30_panel::proto::frame::{self, FrameDecoder};
@@ -811,5 +812,94 @@ async fn a_robot_that_hangs_up_after_each_answer_waits_out_the_backoff_unless_as
         [10, 20, 40, 0, 10, 0],
         "short connections wait out a growing backoff; a healthy one is reopened at once \
          and starts the backoff again; the command connection's rule reopens any at once"
+    );
+}
+
+/// A robot that answers the first request on its i-th connection `delays_ms[i]` after reading
+/// it (the last delay on later connections), reads the rest unanswered, and takes at most
+/// `connections` connections.
+fn answering_after(delays_ms: &'static [u64], connections: usize) -> std::net::SocketAddr {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    thread::spawn(move || {
+        let mut delays = delays_ms
+            .iter()
+            .chain(std::iter::repeat(delays_ms.last().unwrap()));
+        for stream in listener.incoming().take(connections) {
+            let Ok(mut s) = stream else { return };
+            let mut d = FrameDecoder::new();
+            let delay = *delays.next().unwrap();
+            if let Some((id, _)) = read_request(&mut s, &mut d) {
+                thread::sleep(std::time::Duration::from_millis(delay));
+                let _ = s.write_all(&answer(id, &perception()));
+            }
+            // Keep the connection until the client closes it.
+            while read_request(&mut s, &mut d).is_some() {}
+        }
+    });
+    addr
+}
+
+#[tokio::test]
+async fn a_robot_given_up_on_as_silent_gets_twice_the_wait_until_it_answers_promptly() {
+    // The first connection's answer comes after 2.5 s, past the 1.5 s wait; then a robot that
+    // takes 2.5 s for every answer is read within the doubled wait, and one prompt answer
+    // halves it again.
+    let addr = answering_after(&[2500, 2500, 100], 3);
+    let mut link = connected(addr).await;
+    assert_eq!(link.request_timeout(), REQUEST_TIMEOUT);
+    assert!(matches!(
+        link.perception(link.request_timeout()).await,
+        Err(ClientError::Timeout)
+    ));
+    assert_eq!(link.health(Instant::now() + SILENT_AFTER), Health::Silent);
+    link.give_up().await;
+    assert_eq!(
+        link.request_timeout(),
+        REQUEST_TIMEOUT * 2,
+        "given up on as silent: the next connection waits twice as long"
+    );
+
+    link.connect().await.expect("the peer accepts");
+    link.send(&Request::Perception).await.unwrap();
+    let sent = Instant::now();
+    assert_eq!(
+        link.health(sent + SILENT_AFTER),
+        Health::Overdue,
+        "not silent at SILENT_AFTER any more (but overdue: motion stays held back)"
+    );
+    assert_eq!(link.health(sent + SILENT_AFTER * 2), Health::Silent);
+    let late = link.receive().await.expect("the late answer");
+    assert_eq!(late.result, Ok(perception()));
+    assert_eq!(
+        link.request_timeout(),
+        REQUEST_TIMEOUT * 2,
+        "an answer that needed the longer wait keeps it"
+    );
+
+    link.connect().await.expect("the peer accepts");
+    link.perception(link.request_timeout())
+        .await
+        .expect("a prompt answer");
+    assert_eq!(
+        link.request_timeout(),
+        REQUEST_TIMEOUT,
+        "an answer within half the wait halves it"
+    );
+}
+
+#[tokio::test]
+async fn the_waits_double_at_most_max_doublings_times() {
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        while read_request(&mut s, &mut d).is_some() {}
+    });
+    let mut link = connected(addr).await;
+    for _ in 0..=MAX_DOUBLINGS {
+        link.give_up().await;
+    }
+    assert_eq!(
+        link.request_timeout(),
+        REQUEST_TIMEOUT * (1 << MAX_DOUBLINGS)
     );
 }

@@ -81,11 +81,25 @@ pub const STABLE_AFTER: Duration = Duration::from_secs(1);
 /// after a request it has not answered: one still outstanding, or one given up on (a robot
 /// that ignored it has said nothing since) unless the robot answered a request written after
 /// it. Once a request was given up on, only an answer counts as received, not keep-alives
-/// or unsolicited frames.
+/// or unsolicited frames. Doubled for a slow robot ([`MAX_DOUBLINGS`]).
 pub const SILENT_AFTER: Duration = Duration::from_secs(2);
 
 /// This many requests given up on in a row also make the robot silent.
 pub const SILENT_TIMEOUTS: u8 = 2;
+
+/// How long a command or poll waits for its answer before it is given up on (and counts as
+/// failed), while the robot answers within it; [`Connection::request_timeout`] is this
+/// lengthened for a slow robot.
+pub const REQUEST_TIMEOUT: Duration = Duration::from_millis(1500);
+
+/// How many times a connection's waits for answers ([`REQUEST_TIMEOUT`] and
+/// [`SILENT_AFTER`]) may double: each time the robot is given up on as silent, they double
+/// for the next connection, so that a robot which answers, but later than
+/// [`REQUEST_TIMEOUT`], is read after all; an answer within half the wait halves them again.
+/// Twice: a robot that takes more than 6 s for each answer is not worth waiting for, and a
+/// hung one is still left after 8 s. [`ANSWER_OVERDUE`] never grows: motion is not written
+/// to a robot that lags, whatever its reason.
+pub const MAX_DOUBLINGS: u8 = 2;
 
 /// A request written on a connection, as remembered until its answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -122,9 +136,10 @@ pub enum Health {
     /// up on unanswered, and nothing written after that request was answered: write no
     /// motion.
     Overdue,
-    /// Nothing received for [`SILENT_AFTER`] since a request was written and not answered
-    /// (still outstanding, or given up on with nothing written after it answered), or
-    /// [`SILENT_TIMEOUTS`] such requests in a row given up on: close and reconnect.
+    /// Nothing received for [`SILENT_AFTER`] (doubled for a slow robot) since a request was
+    /// written and not answered (still outstanding, or given up on with nothing written after
+    /// it answered), or [`SILENT_TIMEOUTS`] such requests in a row given up on: close and
+    /// reconnect.
     Silent,
 }
 
@@ -165,6 +180,9 @@ pub struct Connection<T: Transport> {
     /// the backoff start again from its minimum, so that a robot that accepts connections
     /// and drops them at once is not hammered.
     answered: bool,
+    /// How many times the waits for answers are doubled ([`MAX_DOUBLINGS`]); kept across
+    /// reconnections, which is where a slow robot is learned.
+    doublings: u8,
     /// When this connection opened.
     opened_at: Instant,
     /// When the latest attempt to open it began.
@@ -190,6 +208,7 @@ impl<T: Transport> Connection<T> {
             motion_unanswered: false,
             answered_up_to: None,
             answered: false,
+            doublings: 0,
             opened_at: Instant::from_ticks(0),
             attempted_at: Instant::from_ticks(0),
         }
@@ -247,6 +266,7 @@ impl<T: Transport> Connection<T> {
         self.disconnect().await;
         self.transport.set_robot(robot);
         self.backoff.reset();
+        self.doublings = 0;
     }
 
     /// Closes the connection and forgets any partial answer and every outstanding request.
@@ -264,7 +284,8 @@ impl<T: Transport> Connection<T> {
     }
 
     /// Gives up on a connection whose robot went silent; the next attempt waits for the
-    /// backoff, so a robot that accepts connections but never answers is not hammered.
+    /// backoff, so a robot that accepts connections but never answers is not hammered, and
+    /// the next connection waits twice as long for answers ([`MAX_DOUBLINGS`]).
     ///
     /// What was written last (the stops due, written just before) is flushed first, for at
     /// most [`WRITE_TIMEOUT`]: the reset that closes the connection would drop it unsent, and
@@ -277,7 +298,25 @@ impl<T: Transport> Connection<T> {
         if core::mem::take(&mut self.answered) {
             self.backoff.reset();
         }
+        if self.doublings < MAX_DOUBLINGS {
+            self.doublings += 1;
+            info!(
+                "waiting {} ms for answers from now on",
+                self.request_timeout().as_millis()
+            );
+        }
         self.backoff.next_delay()
+    }
+
+    /// How long a request waits for its answer on this connection: [`REQUEST_TIMEOUT`],
+    /// doubled for a robot found slow ([`MAX_DOUBLINGS`]).
+    pub fn request_timeout(&self) -> Duration {
+        self.patient(REQUEST_TIMEOUT)
+    }
+
+    /// `wait` doubled as many times as the robot has been found slow.
+    fn patient(&self, wait: Duration) -> Duration {
+        wait * (1 << self.doublings)
     }
 
     /// How long to wait before reconnecting after the connection was lost: not at all if
@@ -300,7 +339,7 @@ impl<T: Transport> Connection<T> {
         if self.timeouts_in_a_row >= SILENT_TIMEOUTS
             || self
                 .waiting_since
-                .is_some_and(|w| waited(w) >= SILENT_AFTER)
+                .is_some_and(|w| waited(w) >= self.patient(SILENT_AFTER))
         {
             Health::Silent
         } else if self.motion_unanswered
@@ -321,7 +360,9 @@ impl<T: Transport> Connection<T> {
             .oldest_not_passed_over()
             .map(|oldest| oldest.at.saturating_add(ANSWER_OVERDUE))
             .filter(|&at| at > now);
-        let silent = self.waiting_since.map(|w| w.saturating_add(SILENT_AFTER));
+        let silent = self
+            .waiting_since
+            .map(|w| w.saturating_add(self.patient(SILENT_AFTER)));
         overdue.into_iter().chain(silent).min()
     }
 
@@ -549,8 +590,13 @@ impl<T: Transport> Connection<T> {
             };
             self.timeouts_in_a_row = 0;
             self.motion_unanswered = false;
-            self.waiting_since = (!self.outstanding.is_empty()).then(Instant::now);
+            let now = Instant::now();
+            self.waiting_since = (!self.outstanding.is_empty()).then_some(now);
             self.answered = true;
+            // An answer within half the wait would have come within the shorter one.
+            if now.saturating_duration_since(request.at) < self.request_timeout() / 2 {
+                self.doublings = self.doublings.saturating_sub(1);
+            }
             self.answered_up_to = self.answered_up_to.max(Some(request.at));
             let result = match decoded {
                 Ok(decoded) => {

@@ -350,6 +350,46 @@ fn a_refused_estop_is_repeated_until_the_robot_confirms_it() {
     finish(panel);
 }
 
+/// A robot that takes 2.5 s to answer anything, past the 1.5 s the firmware waits at first:
+/// the e-stop reaches it at once, and once the firmware has given a silent connection up, the
+/// next waits longer, so a status is read and confirms the e-stop, whose repeats end.
+#[test]
+fn a_robot_that_answers_every_request_late_confirms_the_estop() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+    sim.set_faults(x30_sim::Faults {
+        delay: Duration::from_millis(2500),
+        ..Default::default()
+    });
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+estop");
+    panel.send("-estop");
+    assert!(
+        eventually(REACTION, || first_command(&sim, pressed, 13).is_some()),
+        "the e-stop reaches the late robot\n{}",
+        log_text(&sim)
+    );
+    let estop = first_command(&sim, pressed, 13).unwrap() - pressed;
+    assert!(estop < 0.5, "e-stop after {estop:.3} s\n{}", log_text(&sim));
+    reaches_soft_estop(&sim);
+    // Unconfirmed, the e-stop would go on every 250 ms for as long as the robot is slow.
+    let quiet = || {
+        let last = motions(&sim, pressed)
+            .into_iter()
+            .filter(|(_, c)| *c == 13)
+            .map(|(t, _)| t)
+            .fold(pressed, f64::max);
+        sim.elapsed().as_secs_f64() - last > 1.5
+    };
+    assert!(
+        eventually(Duration::from_secs(30), quiet),
+        "the e-stop is still repeated: no status confirmed it\n{}",
+        log_text(&sim)
+    );
+    finish(panel);
+}
+
 /// A robot whose writes go out only in part: a copy of each answer, cut short, comes before
 /// it. The firmware still reads every answer (a decoder going by the declared length alone
 /// would take each answer for the rest of the broken frame): its link comes up, held forward
@@ -430,8 +470,9 @@ fn a_half_open_robot_gets_stops_at_once_and_the_panel_reconnects() {
         "no new connection to the silent robot\n{}",
         log_text(&sim)
     );
-    // The panel gives the robot up and reconnects every couple of seconds, writing the
-    // stops due (the e-stop repeats every 250 ms) just before each give-up. Every request
+    // The panel gives the robot up and reconnects, after about 2 s, then 3 s, then 6 s (each
+    // give-up doubles the next connection's waits), writing the stops due (the e-stop
+    // repeats every 250 ms) just before each give-up. Every request
     // written on the command connections reached the robot, those included: their message
     // IDs, which count on across connections, run without a gap.
     let command_conns = || {
@@ -452,7 +493,7 @@ fn a_half_open_robot_gets_stops_at_once_and_the_panel_reconnects() {
         (conns.len(), ids)
     };
     assert!(
-        eventually(Duration::from_secs(10), || command_conns().0 >= 4),
+        eventually(Duration::from_secs(20), || command_conns().0 >= 4),
         "three give-ups of the silent robot\n{}",
         log_text(&sim)
     );

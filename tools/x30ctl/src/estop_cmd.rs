@@ -4,15 +4,15 @@
 //! whatever answers are still due, until a status (1002) reports soft emergency stop
 //! (MotionState 6). A status is asked with the first command and again each time the last
 //! one is answered. Refusals (ErrorCode 1), late answers and lost connections change only
-//! the report: a robot silent for [`SILENT`] gets a new connection (and, if nothing was
-//! answered on the old one, twice the wait, up to [`MAX_DOUBLINGS`] times), and a
-//! connection that fails is tried again at the next repeat. The confirmation (exit 0),
+//! the report: a robot silent for [`SILENT`] gets a new connection, with twice the wait (up
+//! to [`MAX_DOUBLINGS`] times, as the panel's connections), and a connection that fails is
+//! tried again at the next repeat. The confirmation (exit 0),
 //! `--timeout-ms` without it (exit 3) or Ctrl-C (exit 130) end the repeats.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-use x30_panel::client::SILENT_AFTER;
+use x30_panel::client::{MAX_DOUBLINGS, SILENT_AFTER};
 use x30_panel::panel::control::ESTOP_REPEAT;
 use x30_panel::proto::codes::{MessageType, MotionState};
 use x30_panel::proto::message::{MotionCommand, Request, Response};
@@ -29,14 +29,6 @@ const REPEAT: Duration = Duration::from_millis(ESTOP_REPEAT.as_millis());
 /// An answer this late, at first, means the connection is given up and a new one opened:
 /// the panel's rule.
 const SILENT: Duration = Duration::from_millis(SILENT_AFTER.as_millis());
-
-/// How often the wait for an answer may double: a connection given up with nothing
-/// answered on it doubles the wait on the next, from [`SILENT`] to at most four times it
-/// (8 s). A robot that answers every request late (a slow link) then still has a status
-/// read, and confirms the e-stop, instead of losing each answer with the connection it was
-/// due on. At most 33 requests are outstanding on a connection by then (a Command 13 per
-/// repeat and one status), fewer than it keeps track of.
-const MAX_DOUBLINGS: u32 = 2;
 
 /// Runs `estop`.
 pub fn run(ctx: &Ctx, interrupts: &Interrupts) -> Result<(), Error> {
@@ -87,11 +79,13 @@ struct Link {
     estops: VecDeque<(u16, Instant)>,
     /// The status request awaiting its answer, and when it was sent.
     status: Option<(u16, Instant)>,
-    /// Whether anything was answered on the connection.
-    answered: bool,
-    /// How often the wait for an answer was doubled from [`SILENT`]; kept across
-    /// connections.
-    doublings: u32,
+    /// How often the wait for an answer was doubled from [`SILENT`], as the panel's
+    /// connections do; kept across connections. A robot that answers every request late (a
+    /// slow link) then still has a status read, and confirms the e-stop, instead of losing
+    /// each answer with the connection it was due on. With the longest wait, at most 33
+    /// requests are outstanding on a connection (a Command 13 per repeat and one status),
+    /// fewer than it keeps track of.
+    doublings: u8,
 }
 
 impl Link {
@@ -155,9 +149,7 @@ impl Link {
             && (silent(self.estops.front().map(|&(_, at)| at))
                 || silent(self.status.map(|(_, at)| at)))
         {
-            if !self.answered {
-                self.doublings = (self.doublings + 1).min(MAX_DOUBLINGS);
-            }
+            self.doublings = (self.doublings + 1).min(MAX_DOUBLINGS);
             warn(&format!(
                 "the robot has not answered for {} ms: reconnecting (waiting {} ms for an answer there)",
                 wait.as_millis(),
@@ -181,7 +173,6 @@ impl Link {
         }) {
             Ok(Some(answer)) => {
                 self.status = None;
-                self.answered = true;
                 let Response::Status(status) = answer.response else {
                     return None;
                 };
@@ -204,7 +195,6 @@ impl Link {
             match conn.poll(message_id, MessageType::Motion, Instant::now(), || false) {
                 Ok(Some(answer)) => {
                     self.estops.pop_front();
-                    self.answered = true;
                     // A refusal is printed like any answer; the command goes again anyway.
                     ctx.print(&answer);
                 }
@@ -227,7 +217,7 @@ impl Link {
 
     /// How long the robot may leave a request unanswered before the connection is given up.
     fn silent_after(&self) -> Duration {
-        SILENT * (1 << self.doublings)
+        SILENT * (1u32 << self.doublings)
     }
 
     /// Drops the connection, and with it the requests that waited for answers on it.
