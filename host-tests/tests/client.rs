@@ -15,6 +15,7 @@ use x30_panel::client::{
     ANSWER_OVERDUE, Backoff, ClientError, Connection, Health, MAX_DOUBLINGS, REQUEST_TIMEOUT,
     SILENT_AFTER, STABLE_AFTER,
 };
+use x30_panel::config::RobotAddress;
 use x30_panel::proto::codes::*;
 use x30_panel::proto::frame::{self, FrameDecoder};
 use x30_panel::proto::message::*;
@@ -889,7 +890,7 @@ async fn a_robot_given_up_on_as_silent_gets_twice_the_wait_until_it_answers_prom
 }
 
 #[tokio::test]
-async fn the_waits_double_at_most_max_doublings_times() {
+async fn the_waits_double_at_most_max_doublings_times_and_start_afresh_for_another_robot() {
     let addr = peer(|mut s| {
         let mut d = FrameDecoder::new();
         while read_request(&mut s, &mut d).is_some() {}
@@ -902,4 +903,11 @@ async fn the_waits_double_at_most_max_doublings_times() {
         link.request_timeout(),
         REQUEST_TIMEOUT * (1 << MAX_DOUBLINGS)
     );
+    // Another robot has not been found slow.
+    link.retarget(RobotAddress {
+        ip: [127, 0, 0, 1],
+        port: addr.port(),
+    })
+    .await;
+    assert_eq!(link.request_timeout(), REQUEST_TIMEOUT);
 }
