@@ -1480,56 +1480,89 @@ async fn a_refused_estop_is_repeated_until_the_robot_confirms_it() {
     .await;
 }
 
-/// A robot that takes 2.5 s to answer anything, past the 1.5 s a request waits at first: once
-/// it has been given up on as silent, its connections wait longer for answers, so its status
-/// is read, and an e-stop, which goes out at once as ever, is confirmed and stops repeating.
+/// Robots that take 2.5 s to answer, past the 1.5 s a request waits at first: one every
+/// request, one its status alone. Once a connection was given up on as silent, the next
+/// waits longer, so the status is read, and an e-stop, which goes out at once as ever, is
+/// confirmed and stops repeating.
 #[tokio::test(flavor = "current_thread")]
-async fn a_robot_that_answers_every_request_late_is_read_and_confirms_an_estop() {
-    let sim = simulator(1.0);
-    sim.set_faults(Faults {
-        delay: StdDuration::from_millis(2500),
-        ..Default::default()
-    });
-    with_app(&sim, async |shared| {
-        let mut read = false;
-        for _ in 0..750 {
-            if shared.snapshot().is_some_and(|s| s.status.is_some()) {
-                read = true;
-                break;
+async fn a_robot_that_answers_late_is_read_and_confirms_an_estop() {
+    let late = StdDuration::from_millis(2500);
+    // (name, faults, whether the connections open when the status is read stay open: the
+    // robot that answers the e-stop late gets its command connection given up on once).
+    let robots = [
+        (
+            "every answer late",
+            Faults {
+                delay: late,
+                ..Default::default()
+            },
+            false,
+        ),
+        (
+            "the status late",
+            Faults {
+                type_delays: vec![(1002, late)],
+                ..Default::default()
+            },
+            true,
+        ),
+    ];
+    for (name, faults, steady) in robots {
+        let sim = simulator(1.0);
+        sim.set_faults(faults);
+        with_app(&sim, async |shared| {
+            let mut read = false;
+            for _ in 0..750 {
+                if shared.snapshot().is_some_and(|s| s.status.is_some()) {
+                    read = true;
+                    break;
+                }
+                sleep(20).await;
             }
-            sleep(20).await;
-        }
-        assert!(read, "the late robot's status is read within 15 s");
-        let pressed = sim.elapsed().as_secs_f64();
-        click(shared, Button::Estop).await;
-        let estop = wait_for_command(&sim, 1000, pressed, 13)
-            .await
-            .expect("the e-stop goes out");
-        assert!(
-            estop - pressed < STOP_BOUND,
-            "the e-stop reached the late robot {:.3} s after the button",
-            estop - pressed
-        );
-        // Confirmed by a status 2.5 s late: the repeats end. (Unconfirmed, they go on
-        // every 250 ms for as long as the robot is slow.)
-        let mut quiet = false;
-        for _ in 0..100 {
-            sleep(200).await;
-            let now = sim.elapsed().as_secs_f64();
-            let last = pressed
-                + commands_after(&sim.requests(), pressed, 13)
-                    .last()
-                    .copied()
-                    .unwrap_or(0.0);
-            if now - last > 1.0 {
-                quiet = true;
-                break;
+            assert!(read, "{name}: the status is read within 15 s");
+            let newest = || sim.requests().iter().map(|e| e.conn).max();
+            let connections = newest();
+            let pressed = sim.elapsed().as_secs_f64();
+            click(shared, Button::Estop).await;
+            let estop = wait_for_command(&sim, 1000, pressed, 13)
+                .await
+                .expect("the e-stop goes out");
+            assert!(
+                estop - pressed < STOP_BOUND,
+                "{name}: the e-stop reached the robot {:.3} s after the button",
+                estop - pressed
+            );
+            // Confirmed by a status 2.5 s late: the repeats end. (Unconfirmed, they go on
+            // every 250 ms for as long as the robot is slow.)
+            let mut quiet = false;
+            for _ in 0..100 {
+                sleep(200).await;
+                let now = sim.elapsed().as_secs_f64();
+                let last = pressed
+                    + commands_after(&sim.requests(), pressed, 13)
+                        .last()
+                        .copied()
+                        .unwrap_or(0.0);
+                if now - last > 1.0 {
+                    quiet = true;
+                    break;
+                }
             }
-        }
-        assert!(quiet, "the e-stop stops repeating within 20 s: confirmed");
-        assert_eq!(sim.snapshot().motion_state, MotionState::SoftEmergencyStop);
-    })
-    .await;
+            assert!(
+                quiet,
+                "{name}: the e-stop stops repeating within 20 s: confirmed"
+            );
+            assert_eq!(sim.snapshot().motion_state, MotionState::SoftEmergencyStop);
+            if steady {
+                assert_eq!(
+                    newest(),
+                    connections,
+                    "{name}: no connection given up on once the status is read"
+                );
+            }
+        })
+        .await;
+    }
 }
 
 /// Connects, orders the dock task and lets it run 300 ms; the simulator's seconds then.
