@@ -1553,6 +1553,10 @@ async fn a_robot_that_answers_late_is_read_and_confirms_an_estop() {
                 "{name}: the e-stop stops repeating within 20 s: confirmed"
             );
             assert_eq!(sim.snapshot().motion_state, MotionState::SoftEmergencyStop);
+            assert!(
+                polls(&sim.requests(), 2002) > 0 && polls(&sim.requests(), 2001) > 0,
+                "{name}: the obstacle and battery polls are asked too, not the status alone"
+            );
             if steady {
                 assert_eq!(
                     newest(),

@@ -12,8 +12,8 @@ use std::io::{Read as _, Write as _};
 use std::net::{TcpListener, TcpStream};
 use std::thread;
 use x30_panel::client::{
-    ANSWER_OVERDUE, Backoff, ClientError, Connection, Health, MAX_DOUBLINGS, REQUEST_TIMEOUT,
-    SILENT_AFTER, STABLE_AFTER,
+    ANSWER_OVERDUE, Backoff, ClientError, Connection, Health, MAX_DOUBLINGS, PROMPT_ANSWERS,
+    REQUEST_TIMEOUT, SILENT_AFTER, STABLE_AFTER,
 };
 use x30_panel::config::RobotAddress;
 use x30_panel::proto::codes::*;
@@ -816,8 +816,8 @@ async fn a_robot_that_hangs_up_after_each_answer_waits_out_the_backoff_unless_as
     );
 }
 
-/// A robot that answers the first request on its i-th connection `delays_ms[i]` after reading
-/// it (the last delay on later connections), reads the rest unanswered, and takes at most
+/// A robot that answers every request on its i-th connection `delays_ms[i]` after reading
+/// it, one request at a time (the last delay on later connections), and takes at most
 /// `connections` connections.
 fn answering_after(delays_ms: &'static [u64], connections: usize) -> std::net::SocketAddr {
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
@@ -829,13 +829,13 @@ fn answering_after(delays_ms: &'static [u64], connections: usize) -> std::net::S
         for stream in listener.incoming().take(connections) {
             let Ok(mut s) = stream else { return };
             let mut d = FrameDecoder::new();
-            let delay = *delays.next().unwrap();
-            if let Some((id, _)) = read_request(&mut s, &mut d) {
-                thread::sleep(std::time::Duration::from_millis(delay));
-                let _ = s.write_all(&answer(id, &perception()));
+            let delay = std::time::Duration::from_millis(*delays.next().unwrap());
+            while let Some((id, _)) = read_request(&mut s, &mut d) {
+                thread::sleep(delay);
+                if s.write_all(&answer(id, &perception())).is_err() {
+                    break;
+                }
             }
-            // Keep the connection until the client closes it.
-            while read_request(&mut s, &mut d).is_some() {}
         }
     });
     addr
@@ -844,9 +844,9 @@ fn answering_after(delays_ms: &'static [u64], connections: usize) -> std::net::S
 #[tokio::test]
 async fn a_robot_given_up_on_as_silent_gets_twice_the_wait_until_it_answers_promptly() {
     // The first connection's answer comes after 2.5 s, past the 1.5 s wait; then a robot that
-    // takes 2.5 s for every answer is read within the doubled wait, and one prompt answer
-    // halves it again.
-    let addr = answering_after(&[2500, 2500, 100], 3);
+    // takes 2.5 s for every answer is read within the doubled wait, and PROMPT_ANSWERS
+    // prompt answers in a row halve it again.
+    let addr = answering_after(&[2500, 2500, 10], 3);
     let mut link = connected(addr).await;
     assert_eq!(link.request_timeout(), REQUEST_TIMEOUT);
     assert!(matches!(
@@ -879,13 +879,23 @@ async fn a_robot_given_up_on_as_silent_gets_twice_the_wait_until_it_answers_prom
     );
 
     link.connect().await.expect("the peer accepts");
+    for _ in 1..PROMPT_ANSWERS {
+        link.perception(link.request_timeout())
+            .await
+            .expect("a prompt answer");
+    }
+    assert_eq!(
+        link.request_timeout(),
+        REQUEST_TIMEOUT * 2,
+        "one prompt answer short of PROMPT_ANSWERS"
+    );
     link.perception(link.request_timeout())
         .await
         .expect("a prompt answer");
     assert_eq!(
         link.request_timeout(),
         REQUEST_TIMEOUT,
-        "an answer within half the wait halves it"
+        "PROMPT_ANSWERS answers in a row within half the wait halve it"
     );
 }
 

@@ -198,6 +198,52 @@ fn the_status_goes_first_whenever_it_is_due() {
     );
 }
 
+/// The polls asked in the first `ms`, one at a time as the application sends them, of a
+/// robot that answers the status after `status_ms` and everything else at once.
+fn one_at_a_time(status_ms: u64, ms: u64) -> Vec<Request> {
+    let mut m = Monitor::new(&Config::default());
+    m.connection(ConnectionState::Open, at(0));
+    let mut now = at(0);
+    let mut asked = Vec::new();
+    while now < at(ms) {
+        let Some(request) = m.next_poll(now) else {
+            now = m.next_deadline().expect("polls are scheduled");
+            continue;
+        };
+        if request == Request::Status {
+            now += Duration::from_millis(status_ms);
+            m.poll_answered(&Response::Status(status()), now);
+        }
+        asked.push(request);
+    }
+    asked
+}
+
+#[test]
+fn a_status_answered_slower_than_its_period_lets_the_other_polls_in_between() {
+    let count =
+        |asked: &[Request], request: &Request| asked.iter().filter(|r| *r == request).count();
+    // Answered at once: the status every 500 ms, the others at their periods.
+    let prompt = one_at_a_time(0, 30_000);
+    assert_eq!(count(&prompt, &Request::Status), 60);
+    assert_eq!(count(&prompt, &Request::Perception), 60);
+    // 1.2 s late: the status is always due again when its answer comes, and would be asked
+    // alone for good. It lets one other poll go first each time, so every poll is asked,
+    // and the status still every other poll at least.
+    let slow = one_at_a_time(1200, 30_000);
+    for request in EVERY_POLL {
+        assert!(
+            count(&slow, &request) > 0,
+            "{request:?} never asked: {slow:?}"
+        );
+    }
+    assert!(
+        slow.windows(2).all(|pair| pair.contains(&Request::Status)),
+        "the status every other poll at least: {slow:?}"
+    );
+    assert!(count(&slow, &Request::Status) >= 20, "{slow:?}");
+}
+
 /// Steps the monitor from `now` to each next deadline until `request` goes out (at most
 /// `limit` polls); when it went.
 fn next_time_asked(
@@ -229,7 +275,7 @@ fn a_poll_that_keeps_failing_is_asked_less_often_until_it_is_answered() {
     }
     assert_eq!(asked, [0, 10_000, 30_000, 70_000, 130_000, 190_000]);
     // Answered: every 5 s again.
-    m.poll_answered(&Response::Battery(battery()));
+    m.poll_answered(&Response::Battery(battery()), at(190_000));
     assert_eq!(
         next_time_asked(&mut m, at(190_000), Request::Battery, 1000),
         Some(195_000)
@@ -272,7 +318,7 @@ fn a_poll_lost_again_and_again_backs_off_and_the_status_is_asked_meanwhile() {
         Some(40_100)
     );
     // Answered: every 10 s again, and a later loss goes first once more.
-    m.poll_answered(&Response::MotorTemperatures(motors_at(40.0)));
+    m.poll_answered(&Response::MotorTemperatures(motors_at(40.0)), at(40_100));
     lose(&mut m, at(40_100));
     assert_eq!(m.next_poll(at(40_200)), Some(Request::MotorTemperatures));
 }

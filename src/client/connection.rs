@@ -95,11 +95,17 @@ pub const REQUEST_TIMEOUT: Duration = Duration::from_millis(1500);
 /// How many times a connection's waits for answers ([`REQUEST_TIMEOUT`] and
 /// [`SILENT_AFTER`]) may double: each time the robot is given up on as silent, they double
 /// for the next connection, so that a robot which answers, but later than
-/// [`REQUEST_TIMEOUT`], is read after all; an answer within half the wait halves them again.
-/// Twice: a robot that takes more than 6 s for each answer is not worth waiting for, and a
-/// hung one is still left after 8 s. [`ANSWER_OVERDUE`] never grows: motion is not written
+/// [`REQUEST_TIMEOUT`], is read after all; [`PROMPT_ANSWERS`] halve them again. Twice: a
+/// robot that takes more than 6 s for each answer is not worth waiting for, and a hung one is
+/// still left after 8 s. [`ANSWER_OVERDUE`] never grows: motion is not written
 /// to a robot that lags, whatever its reason.
 pub const MAX_DOUBLINGS: u8 = 2;
+
+/// This many answers in a row, each within half the wait, halve the waits again
+/// ([`MAX_DOUBLINGS`]). Several, not one: a robot slow to answer its status answers the
+/// other polls promptly in between, and one of those halving the wait would have the next
+/// status given up on, and the connection with it.
+pub const PROMPT_ANSWERS: u8 = 8;
 
 /// A request written on a connection, as remembered until its answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -183,6 +189,8 @@ pub struct Connection<T: Transport> {
     /// How many times the waits for answers are doubled ([`MAX_DOUBLINGS`]); kept across
     /// reconnections, which is where a slow robot is learned.
     doublings: u8,
+    /// Answers in a row within half the wait, towards [`PROMPT_ANSWERS`].
+    prompt_in_a_row: u8,
     /// When this connection opened.
     opened_at: Instant,
     /// When the latest attempt to open it began.
@@ -209,6 +217,7 @@ impl<T: Transport> Connection<T> {
             answered_up_to: None,
             answered: false,
             doublings: 0,
+            prompt_in_a_row: 0,
             opened_at: Instant::from_ticks(0),
             attempted_at: Instant::from_ticks(0),
         }
@@ -267,6 +276,7 @@ impl<T: Transport> Connection<T> {
         self.transport.set_robot(robot);
         self.backoff.reset();
         self.doublings = 0;
+        self.prompt_in_a_row = 0;
     }
 
     /// Closes the connection and forgets any partial answer and every outstanding request.
@@ -298,6 +308,7 @@ impl<T: Transport> Connection<T> {
         if core::mem::take(&mut self.answered) {
             self.backoff.reset();
         }
+        self.prompt_in_a_row = 0;
         if self.doublings < MAX_DOUBLINGS {
             self.doublings += 1;
             info!(
@@ -593,9 +604,16 @@ impl<T: Transport> Connection<T> {
             let now = Instant::now();
             self.waiting_since = (!self.outstanding.is_empty()).then_some(now);
             self.answered = true;
-            // An answer within half the wait would have come within the shorter one.
+            // An answer within half the wait would have come within the shorter one; several
+            // in a row halve it.
             if now.saturating_duration_since(request.at) < self.request_timeout() / 2 {
-                self.doublings = self.doublings.saturating_sub(1);
+                self.prompt_in_a_row += 1;
+                if self.prompt_in_a_row >= PROMPT_ANSWERS {
+                    self.prompt_in_a_row = 0;
+                    self.doublings = self.doublings.saturating_sub(1);
+                }
+            } else {
+                self.prompt_in_a_row = 0;
             }
             self.answered_up_to = self.answered_up_to.max(Some(request.at));
             let result = match decoded {

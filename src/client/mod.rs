@@ -19,8 +19,8 @@ pub use backoff::Backoff;
 pub use clock::RobotClock;
 pub use connection::{
     ANSWER_OVERDUE, Anomalies, Answer, Connection, Health, MAX_DOUBLINGS, MAX_OUTSTANDING,
-    REQUEST_TIMEOUT, RX_BUF, SILENT_AFTER, SILENT_TIMEOUTS, STABLE_AFTER, Sent, TX_BUF, Transport,
-    WRITE_TIMEOUT,
+    PROMPT_ANSWERS, REQUEST_TIMEOUT, RX_BUF, SILENT_AFTER, SILENT_TIMEOUTS, STABLE_AFTER, Sent,
+    TX_BUF, Transport, WRITE_TIMEOUT,
 };
 pub use embedded_io_async::ErrorKind;
 

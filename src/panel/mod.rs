@@ -242,7 +242,7 @@ impl Panel {
 
     /// A poll's answer arrived at `now`.
     pub fn poll_answered(&mut self, response: &Response, now: Instant) {
-        self.monitor.poll_answered(response);
+        self.monitor.poll_answered(response, now);
         self.view.update(response, now);
         // An all-zero status says nothing about the motion state.
         if let Response::Status(status) = response

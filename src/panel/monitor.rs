@@ -102,6 +102,9 @@ pub struct Monitor {
     connected: bool,
     /// Whether a navigation task runs.
     navigating: bool,
+    /// Whether the status yields its turn to one other poll due: its latest answer came
+    /// after the next status was already due, so the status alone would fill the connection.
+    status_yields: bool,
 }
 
 impl Monitor {
@@ -133,6 +136,7 @@ impl Monitor {
             ],
             connected: false,
             navigating: false,
+            status_yields: false,
         }
     }
 
@@ -197,12 +201,17 @@ impl Monitor {
             .find(|s| s.kind.message_type() == message_type && s.due.is_some())
     }
 
-    /// A poll's answer arrived: its kind is asked at its own period again.
-    pub fn poll_answered(&mut self, response: &Response) {
+    /// A poll's answer arrived at `now`: its kind is asked at its own period again. A status
+    /// answer that comes when the next status is already due (a robot slower to answer it
+    /// than its period) lets one other poll due go first, so that the others are still asked.
+    pub fn poll_answered(&mut self, response: &Response, now: Instant) {
         let message_type = response.message_type();
         for s in &mut self.schedules {
             if s.kind.message_type() == message_type {
                 s.failures = 0;
+                if s.kind == Poll::Status {
+                    self.status_yields = s.due.is_some_and(|due| due <= now);
+                }
             }
         }
     }
@@ -227,18 +236,19 @@ impl Monitor {
     }
 
     /// The poll to send at `now`, if one is due: one lost with its connection first, then
-    /// the status, then the most overdue, ties in the order perception, battery, motor
-    /// temperatures, navigation status.
+    /// the status (unless it yields, [`Monitor::poll_answered`]), then the most overdue,
+    /// ties in the order perception, battery, motor temperatures, navigation status.
     pub fn next_poll(&mut self, now: Instant) -> Option<Request> {
         if !self.connected {
             return None;
         }
+        let status_first = !core::mem::take(&mut self.status_yields);
         let s = self
             .schedules
             .iter_mut()
             .filter(|s| s.due.is_some_and(|due| due <= now))
             // `min_by_key` keeps the first of equal keys, which gives the tie order.
-            .min_by_key(|s| (!s.first, s.kind != Poll::Status, s.due))?;
+            .min_by_key(|s| (!s.first, !(status_first && s.kind == Poll::Status), s.due))?;
         s.due = s.due.map(|due| next_after(due, s.period, now));
         s.first = false;
         Some(s.kind.request())
