@@ -38,6 +38,14 @@ fn peer(script: impl FnOnce(TcpStream) + Send + 'static) -> std::net::SocketAddr
     addr
 }
 
+/// A half-open robot: accepts one connection, reads everything and answers nothing.
+fn half_open() -> std::net::SocketAddr {
+    peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        while read_request(&mut s, &mut d).is_some() {}
+    })
+}
+
 fn perception() -> Response {
     Response::Perception(Perception {
         obs_state: ObsState::ObstacleAhead,
@@ -502,11 +510,7 @@ async fn a_write_the_robot_never_takes_drops_the_connection_within_its_bound() {
 
 #[tokio::test]
 async fn a_robot_that_stops_answering_is_overdue_then_silent() {
-    let addr = peer(|mut s| {
-        let mut d = FrameDecoder::new();
-        // Read everything, answer nothing: a half-open robot.
-        while read_request(&mut s, &mut d).is_some() {}
-    });
+    let addr = half_open();
     let mut link = connected(addr).await;
     let start = Instant::now();
     assert_eq!(link.health(start), Health::Answering);
@@ -545,10 +549,7 @@ async fn a_robot_that_stops_answering_is_overdue_then_silent() {
 
 #[tokio::test]
 async fn a_request_given_up_on_still_counts_towards_silence() {
-    let addr = peer(|mut s| {
-        let mut d = FrameDecoder::new();
-        while read_request(&mut s, &mut d).is_some() {}
-    });
+    let addr = half_open();
     let mut link = connected(addr).await;
     let before = Instant::now();
     link.send(&Request::Status).await.unwrap();
@@ -901,10 +902,7 @@ async fn a_robot_given_up_on_as_silent_gets_twice_the_wait_until_it_answers_prom
 
 #[tokio::test]
 async fn the_waits_double_at_most_max_doublings_times_and_start_afresh_for_another_robot() {
-    let addr = peer(|mut s| {
-        let mut d = FrameDecoder::new();
-        while read_request(&mut s, &mut d).is_some() {}
-    });
+    let addr = half_open();
     let mut link = connected(addr).await;
     for _ in 0..=MAX_DOUBLINGS {
         link.give_up().await;

@@ -97,8 +97,8 @@ pub const REQUEST_TIMEOUT: Duration = Duration::from_millis(1500);
 /// for the next connection, so that a robot which answers, but later than
 /// [`REQUEST_TIMEOUT`], is read after all; [`PROMPT_ANSWERS`] halve them again. Twice: a
 /// robot that takes more than 6 s for each answer is not worth waiting for, and a hung one is
-/// still left after 8 s. [`ANSWER_OVERDUE`] never grows: motion is not written
-/// to a robot that lags, whatever its reason.
+/// still left after 8 s. [`ANSWER_OVERDUE`] never grows: motion is not written to a robot
+/// that lags, whatever its reason.
 pub const MAX_DOUBLINGS: u8 = 2;
 
 /// This many answers in a row, each within half the wait, halve the waits again

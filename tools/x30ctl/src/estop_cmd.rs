@@ -6,8 +6,8 @@
 //! one is answered. Refusals (ErrorCode 1), late answers and lost connections change only
 //! the report: a robot silent for [`SILENT`] gets a new connection, with twice the wait (up
 //! to [`MAX_DOUBLINGS`] times, as the panel's connections), and a connection that fails is
-//! tried again at the next repeat. The confirmation (exit 0),
-//! `--timeout-ms` without it (exit 3) or Ctrl-C (exit 130) end the repeats.
+//! tried again at the next repeat. The confirmation (exit 0), `--timeout-ms` without it
+//! (exit 3) or Ctrl-C (exit 130) end the repeats.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
