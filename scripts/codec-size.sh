@@ -15,13 +15,13 @@ export RUSTFLAGS="-C link-arg=-e_start -C link-arg=--gc-sections"
 # it with the target's own linker instead.
 export CARGO_TARGET_THUMBV7EM_NONE_EABIHF_LINKER=rust-lld
 target=thumbv7em-none-eabihf
-# Builds with the features "$1" (none: the baseline), each set in a target directory of its
-# own, and prints the binary's path.
+# Builds with the features "$1" (none: the baseline) and prints the binary's path, which the
+# next build replaces: read it first. The builds share a target directory of their own (the
+# flags above would rebuild the firmware's), so that the dependencies are built once, not
+# once a feature set.
 build() {
-    local dir="target/${1:-base}"
-    dir=${dir// /-}
-    cargo build --release --quiet --target "$target" --target-dir "$dir" --features "$1"
-    echo "$dir/$target/release/x30-codec-size"
+    cargo build --release --quiet --target "$target" --target-dir target --features "$1"
+    echo "target/$target/release/x30-codec-size"
 }
 # The section sizes of the binary "$1": text+rodata are flash; data is flash and RAM; bss
 # is RAM.

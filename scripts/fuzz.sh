@@ -9,14 +9,15 @@
 # The targets: frame_xml (frame decoder and both message decoders on a byte stream) and
 # read_paths (the reader's layout shortcuts against its general path, the answers' writer
 # against its general path, and decode(encode(x)) == x). Each runs for SECONDS, default 30,
+# beside the other (a core each),
 # first against the codec as the boards build it, then against its `compact` build (the one
 # that meets the flash targets, whose reader and number text take other code). The fuzzer
 # works on a copy of the committed seed corpus (host-tests/fuzz/corpus/<target>/, written by
 # gen_corpus.py) in a temporary directory, so the corpus only changes when someone copies an
 # input into it on purpose. Crashing inputs are written to
 # host-tests/fuzz/artifacts/<build>/<target>/ (ignored by git); the script then exits
-# non-zero. Reproduce one with
-#   tools/target/fuzz-<build>/<host>/fuzz/<target> <artifact>
+# non-zero, leaving the build that crashed in place: reproduce one with
+#   tools/target/fuzz/<host>/fuzz/<target> <artifact>
 set -euo pipefail
 
 DUR="${1:-30}"
@@ -42,21 +43,24 @@ HOST="$(rustc -vV | sed -n 's/^host: //p')"
 WORK="$(mktemp -d)"
 trap 'rm -rf "$WORK"' EXIT
 
-# Each build in a target directory of its own: the coverage flags would otherwise rebuild
-# every dependency of the host workspace's other builds, and theirs this one's.
+# The fuzz builds in a target directory of their own: the coverage flags would otherwise
+# rebuild every dependency of the host workspace's other builds, and theirs these. The two
+# builds share it (and their dependencies); the second replaces the first's binaries.
+TARGET_DIR="$FUZZ_DIR/../../tools/target/fuzz"
 for build in default compact; do
-  TARGET_DIR="$FUZZ_DIR/../../tools/target/fuzz-$build"
   features=()
   [ "$build" = compact ] && features=(--features x30-panel/compact)
   cargo build --profile fuzz -p x30-fuzz --bins --target-dir "$TARGET_DIR" "${features[@]}"
 
+  # The two targets fuzz side by side, one a core, each for SECONDS; each one's output goes
+  # to a log of its own, printed whole if it found something and its final figures otherwise.
+  pids=()
   for target in frame_xml read_paths; do
     BIN="$TARGET_DIR/$HOST/fuzz/$target"
     ARTIFACTS="$FUZZ_DIR/artifacts/$build/$target"
     mkdir -p "$ARTIFACTS"
     rm -rf "${WORK:?}/$target"
     cp -R "corpus/$target" "$WORK/$target"
-    status=0
     "$BIN" "$WORK/$target" \
       -max_total_time="$DUR" \
       -rss_limit_mb=2048 \
@@ -64,11 +68,22 @@ for build in default compact; do
       -print_final_stats=1 \
       -dict="$FUZZ_DIR/frame_xml.dict" \
       -artifact_prefix="$ARTIFACTS/" \
-      "$@" || status=$?
-    if [ "$status" -ne 0 ]; then
-      echo "fuzz.sh: $target ($build build) stopped with status $status; crashing inputs are in $ARTIFACTS" >&2
-      exit "$status"
-    fi
-    echo "fuzz.sh: $target ($build build): no crash in ${DUR}s"
+      "$@" > "$WORK/$target.log" 2>&1 &
+    pids+=("$!")
   done
+  failed=0
+  for target in frame_xml read_paths; do
+    status=0
+    wait "${pids[0]}" || status=$?
+    pids=("${pids[@]:1}")
+    if [ "$status" -ne 0 ]; then
+      cat "$WORK/$target.log"
+      echo "fuzz.sh: $target ($build build) stopped with status $status; crashing inputs are in $FUZZ_DIR/artifacts/$build/$target" >&2
+      failed=$status
+    else
+      grep -E '^(Done |stat::)' "$WORK/$target.log" || true
+      echo "fuzz.sh: $target ($build build): no crash in ${DUR}s"
+    fi
+  done
+  [ "$failed" -eq 0 ] || exit "$failed"
 done

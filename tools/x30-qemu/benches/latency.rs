@@ -2,7 +2,7 @@
 //! panel's UART in QEMU to x30-sim's request log, for a healthy robot and for each fault
 //! the simulator can inject.
 //!
-//! `cargo bench -p x30-qemu --bench latency` (from `host-tests/`) prints, per robot, the
+//! `cargo bench -p x30-qemu --bench latency` (from `tools/`) prints, per robot, the
 //! minimum, median and maximum over `X30_LATENCY_PRESSES` (default 10) presses of:
 //!
 //! - forward: press → first Type 2 Command 1;
@@ -14,6 +14,10 @@
 //! page (`GET /` and `GET /api/status` back to back, each on a new connection, as fast as
 //! the board answers) through x30-qemu's `--http`: the page must not delay a stop.
 //! `X30_LATENCY_ROBOTS=TEXT` measures only the robots whose name contains TEXT.
+//!
+//! `cargo test --all-targets` (the test command) runs it too, without `--bench`, to show the
+//! report still runs: one press of each kind per robot, unless `X30_LATENCY_PRESSES` says
+//! otherwise. Ten take four minutes, which the report needs and the check does not.
 //!
 //! Both ends are read on this machine's clock: the time the line was written to x30-qemu's
 //! input and the simulator's arrival time of the request, so the figures include the
@@ -111,14 +115,16 @@ const ROBOTS: [Robot; 6] = [
 ];
 
 fn main() {
+    let measured = std::env::args().any(|arg| arg == "--bench");
     let presses = std::env::var("X30_LATENCY_PRESSES")
         .ok()
         .and_then(|n| n.parse().ok())
-        .unwrap_or(10usize);
+        .unwrap_or(if measured { 10usize } else { 1 });
     let only = std::env::var("X30_LATENCY_ROBOTS").unwrap_or_default();
     let Some(turn) = turn() else { return };
+    let plural = if presses == 1 { "" } else { "es" };
     println!(
-        "press -> wire latency in QEMU against x30-sim, ms: min / median / max over {presses} presses"
+        "press -> wire latency in QEMU against x30-sim, ms: min / median / max over {presses} press{plural}"
     );
     print!("| {:38}", "robot");
     for measure in MEASURES {
