@@ -146,11 +146,33 @@ fn shows_number(text: &str, n: i32) -> bool {
         .any(|word| word == n.to_string())
 }
 
+/// What of an element [`shown_until`] reads.
+#[derive(Clone, Copy)]
+enum Shown {
+    /// Its text, as the page shows it.
+    Text,
+    /// Its `class` attribute, which says how the page draws it (`stale`: greyed out).
+    Class,
+}
+
 /// Polls the text of `css` until `accept` takes it or `limit` passes, doing `meanwhile`
 /// before each look; the last text seen (or why there was none) as the error.
 async fn text_until(
     client: &Client,
     css: &str,
+    limit: Duration,
+    meanwhile: impl FnMut(),
+    accept: impl Fn(&str) -> bool,
+) -> Result<String, String> {
+    shown_until(client, css, Shown::Text, limit, meanwhile, accept).await
+}
+
+/// Polls `what` of `css` until `accept` takes it or `limit` passes, doing `meanwhile`
+/// before each look; the last one seen (or why there was none) as the error.
+async fn shown_until(
+    client: &Client,
+    css: &str,
+    what: Shown,
     limit: Duration,
     mut meanwhile: impl FnMut(),
     accept: impl Fn(&str) -> bool,
@@ -159,11 +181,15 @@ async fn text_until(
     loop {
         meanwhile();
         let last = match client.find(Locator::Css(css)).await {
-            Ok(element) => match element.text().await {
-                Ok(text) if accept(&text) => return Ok(text),
-                Ok(text) => format!("{text:?}"),
-                Err(e) => e.to_string(),
+            Ok(element) => match what {
+                Shown::Text => element.text().await,
+                Shown::Class => element.attr("class").await.map(Option::unwrap_or_default),
             },
+            Err(e) => Err(e),
+        };
+        let last = match last {
+            Ok(shown) if accept(&shown) => return Ok(shown),
+            Ok(shown) => format!("{shown:?}"),
             Err(e) => e.to_string(),
         };
         if Instant::now() >= deadline {
@@ -171,6 +197,21 @@ async fn text_until(
         }
         tokio::time::sleep(Duration::from_millis(200)).await;
     }
+}
+
+/// Waits until the page draws the section `css` as stale (greyed out) or, with `stale`
+/// false, as current.
+async fn stale_shows(client: &Client, css: &str, stale: bool) -> Result<String, String> {
+    let is_stale = |class: &str| class.split(' ').any(|c| c == "stale");
+    shown_until(
+        client,
+        css,
+        Shown::Class,
+        PAGE_SHOWS,
+        || {},
+        |class| is_stale(class) == stale,
+    )
+    .await
 }
 
 /// The text of the whole page.
@@ -377,6 +418,14 @@ async fn check_page(
             "a stale battery answer is not marked stale: class {drawn}"
         ));
     }
+    // The same from the panel's own JSON: a robot that stops answering its status (each
+    // answer held a minute) has it greyed out once the panel holds it too old, two
+    // seconds on, and shown again once the robot answers it again.
+    stale_shows(client, "#robot", false).await?;
+    sim.update_faults(|f| f.type_delays = vec![(1002, Duration::from_secs(60))]);
+    stale_shows(client, "#robot", true).await?;
+    sim.update_faults(|f| f.type_delays.clear());
+    stale_shows(client, "#robot", false).await?;
 
     // Without a PIN the settings are read-only, and the page says how to set one.
     client
