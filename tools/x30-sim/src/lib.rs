@@ -115,7 +115,7 @@ use std::time::{Duration, Instant};
 
 pub use faults::{Declaration, Faults};
 pub use log::{LogEntry, MEMORY_LIMIT, TaskEntry};
-pub use outbox::SPLIT_GAP;
+pub use outbox::{SPLIT_GAP, encode_frame};
 pub use robot::{Pose, Robot, Snapshot, TaskEvent};
 pub use server::TICK;
 pub use unsynced::NO_SYNC_QUIET;

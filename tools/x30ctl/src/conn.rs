@@ -690,6 +690,7 @@ mod tests {
     use std::thread;
     use x30_panel::proto::codes::{CommandResult, MotionCommandCode, RequestErrorCode};
     use x30_panel::proto::message::{Battery, MotionAck, MotionCommand, RequestError, RobotStatus};
+    use x30_sim::Faults;
 
     /// Bound on every wait in these tests.
     const LIMIT: Duration = Duration::from_secs(5);
@@ -728,14 +729,7 @@ mod tests {
     }
 
     fn answer_frame(id: u16, response: &Response) -> Vec<u8> {
-        let mut body = vec![0; 4096];
-        let n = response
-            .encode(&Timestamp::DOCUMENT_EPOCH, &mut body)
-            .expect("encode");
-        let mut out = vec![0; HEADER_LEN + n];
-        let n = frame::encode(&mut out, id, &body[..n]).expect("frame");
-        out.truncate(n);
-        out
+        x30_sim::encode_frame(id, response, &Faults::default()).expect("the answer encodes")
     }
 
     fn type_0(id: u16) -> Vec<u8> {

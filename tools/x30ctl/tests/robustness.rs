@@ -350,14 +350,7 @@ fn fake_robot(answer: impl FnOnce(u16) -> Vec<u8> + Send + 'static) -> String {
 }
 
 fn encode_response(id: u16, response: &Response) -> Vec<u8> {
-    let mut body = vec![0; 4096];
-    let n = response
-        .encode(&Timestamp::DOCUMENT_EPOCH, &mut body)
-        .expect("encode");
-    let mut out = vec![0; HEADER_LEN + n];
-    let n = frame::encode(&mut out, id, &body[..n]).expect("frame");
-    out.truncate(n);
-    out
+    x30_sim::encode_frame(id, response, &Faults::default()).expect("the answer encodes")
 }
 
 #[test]
