@@ -1481,8 +1481,9 @@ async fn a_refused_estop_is_repeated_until_the_robot_confirms_it() {
 }
 
 /// Robots that take 2.5 s to answer, past the 1.5 s a request waits at first: one every
-/// request, one its status alone. Once a connection was given up on as silent, the next
-/// waits longer, so the status is read, and an e-stop, which goes out at once as ever, is
+/// request, one its status alone, and one each new connection's first requests (3 s to
+/// set the client up). Once a connection was given up on as silent, the next waits
+/// longer, so the status is read, and an e-stop, which goes out at once as ever, is
 /// confirmed and stops repeating.
 #[tokio::test(flavor = "current_thread")]
 async fn a_robot_that_answers_late_is_read_and_confirms_an_estop() {
@@ -1502,6 +1503,14 @@ async fn a_robot_that_answers_late_is_read_and_confirms_an_estop() {
             "the status late",
             Faults {
                 type_delays: vec![(1002, late)],
+                ..Default::default()
+            },
+            true,
+        ),
+        (
+            "each connection's first answers late",
+            Faults {
+                warm_up: StdDuration::from_secs(3),
                 ..Default::default()
             },
             true,

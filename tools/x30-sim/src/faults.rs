@@ -68,6 +68,9 @@ pub struct Faults {
     /// setting it to a moment still ahead also closes every open connection.
     /// [`crate::Simulator::refuse_connections`] sets it from a duration.
     pub refuse_connections_until: Option<Instant>,
+    /// Answer nothing on a connection until this long after it opened: answers due sooner
+    /// wait until then. A `robot_server` slow to set up each new client.
+    pub warm_up: Duration,
     /// Refuse this many of the next soft emergency stops (Type 2 Command 13): each is
     /// answered with ErrorCode 1, leaves the motion state as it was, and counts this down.
     pub refuse_estops: u32,

@@ -29,6 +29,10 @@ struct Cli {
     /// (repeatable: --delay-type 1002=1200 --delay-type 2001=300).
     #[arg(long = "delay-type", value_name = "TYPE=MS", value_parser = type_delay)]
     delay_types: Vec<(i32, Duration)>,
+    /// Answer nothing on a connection for its first MS milliseconds; answers due sooner
+    /// wait until then (a robot slow to set up each new client).
+    #[arg(long, value_name = "MS", default_value_t = 0)]
+    warm_up_ms: u64,
     /// Read and log requests but neither act on them nor answer (a half-open robot).
     #[arg(long)]
     mute: bool,
@@ -156,6 +160,7 @@ impl Cli {
             faults: Faults {
                 delay: Duration::from_millis(self.delay_ms),
                 type_delays: self.delay_types.clone(),
+                warm_up: Duration::from_millis(self.warm_up_ms),
                 mute: self.mute,
                 refuse_connections_until: self
                     .refuse_for_ms

@@ -6,8 +6,8 @@
 //! waits for delays or slow clients. Every answer is encoded with the protocol core, then
 //! altered and written as the faults in force at that moment say.
 //!
-//! Answers wait in arrival order until their delay ([`Faults::delay_for`]) has expired; of
-//! those due, the earliest queued is written first. So without per-Type delays answers go
+//! Answers wait in arrival order until their delay ([`Faults::delay_for`]) has expired, and
+//! the connection's [`Faults::warm_up`]; of those due, the earliest queued is written first. So without per-Type delays answers go
 //! out in the order they were queued, and with them a slow Type holds up no other.
 
 use std::io::{self, Write};
@@ -109,19 +109,22 @@ impl Drop for FollowUp {
 /// Writes the answers queued for one connection until the queue has closed (its reader
 /// has ended) and nothing is left, a write fails, or the simulator shuts down.
 pub(crate) fn run(shared: Arc<Shared>, mut stream: TcpStream, queue: Receiver<Outgoing>) {
+    let opened = Instant::now();
     let mut waiting: Vec<Outgoing> = Vec::new();
     let mut open = true;
     while (open || !waiting.is_empty()) && !shared.is_shutting_down() {
         let faults = shared.faults();
         let now = Instant::now();
-        if let Some(i) = waiting.iter().position(|o| o.due(&faults) <= now) {
+        let warmed_up = faults::after(opened, faults.warm_up);
+        let due = |o: &Outgoing| o.due(&faults).max(warmed_up);
+        if let Some(i) = waiting.iter().position(|o| due(o) <= now) {
             let outgoing = waiting.remove(i);
             if !faults.mute && send(&shared, &mut stream, &outgoing, &faults).is_err() {
                 return;
             }
             continue;
         }
-        let next_due = waiting.iter().map(|o| o.due(&faults)).min();
+        let next_due = waiting.iter().map(due).min();
         let wait = next_due.map_or(POLL, |due| due.saturating_duration_since(now).min(POLL));
         if !open {
             std::thread::sleep(wait);

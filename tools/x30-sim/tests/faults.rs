@@ -323,6 +323,25 @@ fn a_type_delay_holds_up_only_its_own_type() {
     assert_eq!(client.recv().id, battery);
 }
 
+/// A connection's first answers wait for its warm-up, counted from when it opened; later
+/// ones do not, and a new connection waits again.
+#[test]
+fn warm_up_holds_each_new_connections_answers() {
+    let sim = start_faulty(Faults {
+        warm_up: ms(500),
+        ..Faults::default()
+    });
+    for _ in 0..2 {
+        let opened = Instant::now();
+        let mut client = Client::connect(sim.addr());
+        client.status();
+        assert!(opened.elapsed() >= ms(500), "{:?}", opened.elapsed());
+        let sent = Instant::now();
+        client.status();
+        assert!(sent.elapsed() < ms(500), "{:?}", sent.elapsed());
+    }
+}
+
 /// Muted, the robot reads and logs requests but neither acts on them nor answers, and the
 /// connection stays open; unmuted, it answers new requests (and never the old ones).
 #[test]
