@@ -7,8 +7,9 @@
 //! altered and written as the faults in force at that moment say.
 //!
 //! Answers wait in arrival order until their delay ([`Faults::delay_for`]) has expired, and
-//! the connection's [`Faults::warm_up`]; of those due, the earliest queued is written first. So without per-Type delays answers go
-//! out in the order they were queued, and with them a slow Type holds up no other.
+//! the connection's [`Faults::warm_up`]; of those due, the earliest queued is written
+//! first. So without per-Type delays answers go out in the order they were queued, and with
+//! them a slow Type holds up no other.
 
 use std::io::{self, Write};
 use std::net::TcpStream;
