@@ -40,7 +40,9 @@ scripts/firmware-size.sh
 scripts/qemu-test.sh
 
 step "host tests of the core, with the firmware's protocol surface (no vendor-extensions)"
-(cd tools && cargo test -p x30-host-tests --all-targets)
+# Eight tests at a time: the application's tests spend their time waiting on the simulated
+# robot (75 s one or two at a time, under 30 s eight at a time, on next to no CPU).
+(cd tools && RUST_TEST_THREADS=8 cargo test -p x30-host-tests --all-targets)
 
 step "host tests of the codec, compact build (its fast paths left out)"
 (cd tools && cargo test -p x30-host-tests --features compact --test messages --test xml \

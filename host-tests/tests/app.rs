@@ -8,6 +8,8 @@ mod peer;
 #[allow(dead_code)]
 #[path = "common/sim_flash.rs"]
 mod sim_flash;
+#[path = "common/steady.rs"]
+mod steady;
 #[path = "common/terminal.rs"]
 mod terminal;
 
@@ -28,6 +30,7 @@ use x30_panel::proto::message::{MotionCommand, NavPoint, Request, RequestError, 
 use x30_sim::{Config as SimConfig, Faults, LogEntry, Simulator};
 
 use sim_flash::{PAGE, SimFlash};
+use steady::steady;
 use terminal::{Keyboard, Screen};
 use x30_panel::config::RobotAddress;
 use x30_panel::console;
@@ -99,10 +102,13 @@ async fn with_app_links<R>(
 ) -> R {
     let shared = Shared::new();
     shared.set_network(NetworkState::Up);
-    tokio::select! {
-        _ = app::run(config, links, &shared) => unreachable!(),
-        result = script(&shared) => result,
-    }
+    steady(async {
+        tokio::select! {
+            _ = app::run(config, links, &shared) => unreachable!(),
+            result = script(&shared) => result,
+        }
+    })
+    .await
 }
 
 async fn press(shared: &Shared, button: Button, pressed: bool) {
@@ -254,11 +260,46 @@ async fn command_path_progress_moves_while_connected_and_while_the_robot_is_away
     let config = Config::default();
     let shared = Shared::new();
     let mut links = links(closed, backoff());
-    let away = tokio::select! {
-        _ = app::run(&config, &mut links, &shared) => unreachable!(),
-        beats = beats_during(&shared, 1500) => beats,
-    };
+    let away = steady(async {
+        tokio::select! {
+            _ = app::run(&config, &mut links, &shared) => unreachable!(),
+            beats = beats_during(&shared, 1500) => beats,
+        }
+    })
+    .await;
     assert!(away >= 3, "{away} beats in 1.5 s without a robot");
+}
+
+/// Connected and idle, the application waits for its next deadline or the robot's next
+/// answer: it is polled a few dozen times a second, as often as those come, and never
+/// polled again at once by a wake of its own (about 200 000 times a second if it were).
+#[tokio::test(flavor = "current_thread")]
+async fn an_idle_panel_waits_between_its_deadlines() {
+    let sim = simulator(1.0);
+    let mut links = links(sim.addr(), backoff());
+    let shared = Shared::new();
+    shared.set_network(NetworkState::Up);
+    let config = config();
+    let polled = std::cell::Cell::new(0u32);
+    let mut app = std::pin::pin!(app::run(&config, &mut links, &shared));
+    let counted = std::future::poll_fn(|cx| {
+        polled.set(polled.get() + 1);
+        app.as_mut().poll(cx)
+    });
+    let (polls, answered) = steady(async {
+        tokio::select! {
+            _ = counted => unreachable!(),
+            window = async {
+                wait_connected(&sim).await;
+                let (polls, answered) = (polled.get(), sim.requests().len());
+                sleep(2000).await;
+                (polled.get() - polls, sim.requests().len() - answered)
+            } => window,
+        }
+    })
+    .await;
+    assert!(answered > 0, "the robot was polled");
+    assert!(polls <= 200, "{polls} polls in 2 s for {answered} answers");
 }
 
 #[tokio::test(flavor = "current_thread")]
@@ -941,17 +982,20 @@ async fn attempts_while_pressing(button: Button, min_ms: u64, max_ms: u64) -> u3
         polls: refused(std::rc::Rc::new(std::cell::Cell::new(0))),
         navigation: refused(std::rc::Rc::new(std::cell::Cell::new(0))),
     };
-    tokio::select! {
-        _ = app::run(&config, &mut links, &shared) => unreachable!(),
-        _ = async {
-            for i in 0..60 {
-                if button != Button::Estop || i == 0 {
-                    press(&shared, button, i % 2 == 0 || button == Button::Estop).await;
+    steady(async {
+        tokio::select! {
+            _ = app::run(&config, &mut links, &shared) => unreachable!(),
+            _ = async {
+                for i in 0..60 {
+                    if button != Button::Estop || i == 0 {
+                        press(&shared, button, i % 2 == 0 || button == Button::Estop).await;
+                    }
+                    sleep(20).await;
                 }
-                sleep(20).await;
-            }
-        } => {}
-    }
+            } => {}
+        }
+    })
+    .await;
     attempts.get()
 }
 

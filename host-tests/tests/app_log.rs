@@ -3,6 +3,8 @@
 //! because the logger it reads is process-wide.
 
 mod common;
+#[path = "common/steady.rs"]
+mod steady;
 #[path = "common/warnings.rs"]
 mod warnings;
 
@@ -10,6 +12,7 @@ use common::TokioTransport;
 use embassy_time::{Duration, Instant};
 use std::net::TcpListener;
 use std::time::Duration as StdDuration;
+use steady::steady;
 use warnings::{record_warnings, warnings_with};
 use x30_panel::app::{self, Connections, STOP_RETRY, Shared};
 use x30_panel::client::{Backoff, Connection};
@@ -84,8 +87,11 @@ async fn the_wait_logged_before_reconnecting_is_the_wait_kept_while_a_stop_is_pe
         assert!(waits.len() >= 4, "{waits:?}");
         assert!(waits.iter().all(|&w| w <= stop_retry), "{waits:?}");
     };
-    tokio::select! {
-        _ = app::run(&config, &mut links, &shared) => unreachable!(),
-        () = script => {}
-    }
+    steady(async {
+        tokio::select! {
+            _ = app::run(&config, &mut links, &shared) => unreachable!(),
+            () = script => {}
+        }
+    })
+    .await;
 }

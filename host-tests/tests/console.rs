@@ -4,11 +4,14 @@
 #[allow(dead_code)]
 #[path = "common/sim_flash.rs"]
 mod sim_flash;
+#[path = "common/steady.rs"]
+mod steady;
 #[path = "common/terminal.rs"]
 mod terminal;
 
 use embassy_time::{Duration, Instant};
 use sim_flash::{PAGE, SimFlash};
+use steady::steady;
 use terminal::{Keyboard, Screen};
 use x30_panel::app::{Shared, Snapshot};
 use x30_panel::config::{Cidr, Config};
@@ -416,7 +419,11 @@ async fn session(
         shared,
         &desk,
     );
-    let rebooted = tokio::time::timeout(std::time::Duration::from_millis(300), console).await;
+    let rebooted = steady(tokio::time::timeout(
+        std::time::Duration::from_millis(300),
+        console,
+    ))
+    .await;
     (screen.text(), rebooted == Ok(Reboot))
 }
 
@@ -557,10 +564,13 @@ async fn with_console<R>(
         tokio::time::sleep(std::time::Duration::from_millis(50)).await;
         script(&desk).await
     };
-    tokio::select! {
-        _ = console => panic!("the console asked for a reboot"),
-        result = script => (screen.text(), result),
-    }
+    steady(async {
+        tokio::select! {
+            _ = console => panic!("the console asked for a reboot"),
+            result = script => (screen.text(), result),
+        }
+    })
+    .await
 }
 
 #[tokio::test(flavor = "current_thread")]
@@ -684,7 +694,7 @@ async fn a_save_whose_caller_gave_up_keeps_the_owners_settings_from_the_next_one
         assert_eq!(settings, expected);
         desk.answer(&mut settings, Ok(saved))
     };
-    let (result, lost) = tokio::join!(desk.save_with(edit("0.4")), owner);
+    let (result, lost) = steady(async { tokio::join!(desk.save_with(edit("0.4")), owner) }).await;
     assert_eq!(result, Ok(saved));
     assert_eq!(lost.iter().collect::<Vec<_>>(), [Key::Repeat]);
 }

@@ -5,6 +5,8 @@
 #[allow(dead_code)]
 #[path = "common/sim_flash.rs"]
 mod sim_flash;
+#[path = "common/steady.rs"]
+mod steady;
 // The console's tests read the screen; these only need a terminal.
 #[allow(dead_code)]
 #[path = "common/terminal.rs"]
@@ -13,6 +15,7 @@ mod terminal;
 use embassy_time::{Duration, Instant};
 use serde_json::Value;
 use sim_flash::{PAGE, SimFlash};
+use steady::steady;
 use terminal::{Keyboard, Screen};
 use x30_panel::app::{Shared, Snapshot};
 use x30_panel::config::{Cidr, Config, RobotAddress};
@@ -821,10 +824,13 @@ async fn with_owner<R>(
         );
         script(&desk).await
     };
-    tokio::select! {
-        _ = console => panic!("the console asked for a reboot"),
-        result = script => result,
-    }
+    steady(async {
+        tokio::select! {
+            _ = console => panic!("the console asked for a reboot"),
+            result = script => result,
+        }
+    })
+    .await
 }
 
 /// Posts `body` to a console owning `settings`; the answer, and the settings then saved on
