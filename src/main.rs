@@ -8,8 +8,14 @@ mod board;
 
 use embassy_executor::Spawner;
 
-/// Firmware main task, started by the embassy executor after reset.
-#[embassy_executor::main]
+/// Starts the board's executor with the main task, after reset.
+#[cortex_m_rt::entry]
+fn entry() -> ! {
+    board::start(|spawner| spawner.spawn(main(spawner).expect("the main task is spawned once")))
+}
+
+/// Firmware main task: the board's bring-up, then the panel.
+#[embassy_executor::task]
 async fn main(spawner: Spawner) -> ! {
     board::run(spawner).await
 }

@@ -171,8 +171,14 @@ async fn network(spawner: Spawner) -> Result<(), &'static str> {
     Ok(())
 }
 
+/// Starts the board's executor with the checks, after reset.
+#[cortex_m_rt::entry]
+fn entry() -> ! {
+    board::start(|spawner| spawner.spawn(main(spawner).expect("the checks are spawned once")))
+}
+
 /// Runs every check, then ends QEMU with their verdict.
-#[embassy_executor::main]
+#[embassy_executor::task]
 async fn main(spawner: Spawner) -> ! {
     semihosting::init_logging(LevelFilter::Warn);
     let results = [

@@ -11,6 +11,7 @@
 //! - **Web page**: the status and settings page on port 80 ([`super::web`]); `x30-qemu
 //!   --http 127.0.0.1:PORT` forwards a port of the host to it.
 //! - **Time**: two CMSDK timers ([`time`]).
+//! - **Executor**: embassy's, asleep in `WFI` when idle ([`executor`]).
 //! - **Buttons**: text lines on UART0 ([`uart`], `-serial stdio`): `+NAME` press, `-NAME`
 //!   release (`x30_panel::panel::virtual_panel`).
 //! - **LEDs and logs**: semihosting ([`semihosting`]): each LED change as `led NAME on|off|blink`.
@@ -21,6 +22,7 @@
 //!   `settings=PATH` names the settings flash's file. Without a file the flash is blank and
 //!   cannot be written: the settings are the defaults and cannot be saved.
 
+pub mod executor;
 pub mod flash;
 mod interrupts;
 pub mod lan9118;

@@ -4,9 +4,10 @@
 //!
 //! The firmware is built once (`x30-qemu --build-only`, or taken from `X30_QEMU_FIRMWARE`)
 //! and booted afresh for each test.
-//! One QEMU runs at a time: the rate assertions need the CPU, and a 2-core machine runs the
-//! whole file in well under two minutes that way. Without `qemu-system-arm` every test
-//! prints "SKIPPED: qemu-system-arm missing" and returns; CI installs it (scripts/setup.sh).
+//! Tests run side by side, up to four QEMUs at once: the firmware sleeps between events, so
+//! a booted QEMU takes little of the host's CPU and leaves the rate assertions theirs.
+//! Without `qemu-system-arm` every test prints "SKIPPED: qemu-system-arm missing" and
+//! returns; CI installs it (scripts/setup.sh).
 
 mod common;
 
@@ -120,6 +121,61 @@ fn holding_forward_repeats_command_1_at_3_to_5_hz_then_sends_zero_velocity() {
         motions[zero..].iter().all(|m| m.1 != 1),
         "forward after the release\n{log}"
     );
+}
+
+/// The CPU time process `pid` has used so far (user and system), from /proc.
+fn cpu_time(pid: u32) -> Duration {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).expect("the process runs");
+    // The fields after the command name, which is in parentheses and may hold spaces:
+    // utime and stime are the 14th and 15th fields of the line, in clock ticks.
+    let fields: Vec<&str> = stat
+        .rsplit_once(')')
+        .expect("a stat line")
+        .1
+        .split_whitespace()
+        .collect();
+    let ticks: u64 = fields[11..13]
+        .iter()
+        .map(|f| f.parse::<u64>().expect("ticks"))
+        .sum();
+    // SAFETY: sysconf reads a constant of the system.
+    let per_second = unsafe { libc::sysconf(libc::_SC_CLK_TCK) };
+    Duration::from_secs_f64(ticks as f64 / per_second as f64)
+}
+
+/// The QEMU process x30-qemu (process `pid`) runs.
+fn qemu_of(pid: u32) -> u32 {
+    let children =
+        std::fs::read_to_string(format!("/proc/{pid}/task/{pid}/children")).expect("x30-qemu runs");
+    children
+        .split_whitespace()
+        .filter_map(|child| child.parse().ok())
+        .find(|child| {
+            std::fs::read_to_string(format!("/proc/{child}/comm"))
+                .is_ok_and(|comm| comm.trim() == "qemu-system-arm")
+        })
+        .expect("x30-qemu runs QEMU")
+}
+
+#[test]
+fn an_idle_panel_leaves_the_hosts_cpu_alone() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let panel = boot(&turn, &sim);
+    // Connected, polling the robot, nothing pressed: the firmware sleeps between events,
+    // and so does the emulated core. An executor that never sleeps keeps QEMU at a whole
+    // core (about 100 %).
+    let qemu = qemu_of(panel.pid());
+    let (polled, before, start) = (sim.requests().len(), cpu_time(qemu), Instant::now());
+    sleep(Duration::from_secs(3));
+    let used = cpu_time(qemu) - before;
+    let share = used.as_secs_f64() / start.elapsed().as_secs_f64();
+    assert!(
+        sim.requests().len() > polled,
+        "the panel polled the robot meanwhile"
+    );
+    assert!(share < 0.5, "QEMU took {:.0} % of a core", share * 100.0);
+    finish(panel);
 }
 
 #[test]

@@ -330,32 +330,49 @@ pub fn have_qemu() -> bool {
     })
 }
 
-/// What every test holds while it runs: the turn to run QEMU, and the firmware.
+/// How many tests run QEMU at once. The firmware sleeps between events, so each QEMU takes
+/// little of the host's CPU once booted; the bound keeps a many-core machine from booting
+/// dozens together.
+const AT_ONCE: usize = 4;
+
+/// The QEMUs running now, and the condition a test waits on for a free place among them.
+static RUNNING: (Mutex<usize>, Condvar) = (Mutex::new(0), Condvar::new());
+
+/// What every test holds while it runs: its turn to run QEMU, and the firmware.
 pub struct Turn {
-    _guard: MutexGuard<'static, ()>,
     /// The firmware ELF to boot.
     pub elf: PathBuf,
 }
 
-/// Takes this test's turn; `None` (after saying so) when QEMU is missing. A firmware that
-/// does not build fails the test.
+impl Drop for Turn {
+    fn drop(&mut self) {
+        // A test that failed while holding its turn does not spoil the others'.
+        let mut running = RUNNING.0.lock().unwrap_or_else(|e| e.into_inner());
+        *running -= 1;
+        RUNNING.1.notify_one();
+    }
+}
+
+/// Takes this test's turn, once fewer than [`AT_ONCE`] tests run QEMU; `None` (after saying
+/// so) when QEMU is missing. A firmware that does not build fails the test.
 pub fn turn() -> Option<Turn> {
-    static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
     if !have_qemu() {
         // Straight to the file descriptor: the test harness captures `println!`, and a
         // skipped end-to-end test must show in the log, not pass unnoticed.
         let _ = writeln!(std::io::stderr(), "SKIPPED: qemu-system-arm missing");
         return None;
     }
-    // A test that failed while holding the turn does not spoil the others'.
-    let guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    match firmware() {
-        Ok(elf) => Some(Turn {
-            _guard: guard,
-            elf: elf.clone(),
-        }),
+    let elf = match firmware() {
+        Ok(elf) => elf.clone(),
         Err(e) => panic!("{e}"),
-    }
+    };
+    let (lock, freed) = &RUNNING;
+    let running = lock.lock().unwrap_or_else(|e| e.into_inner());
+    let mut running = freed
+        .wait_while(running, |running| *running >= AT_ONCE)
+        .unwrap_or_else(|e| e.into_inner());
+    *running += 1;
+    Some(Turn { elf })
 }
 
 /// A simulator in real time on a free loopback port.
