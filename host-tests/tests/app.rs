@@ -1463,16 +1463,12 @@ async fn an_estop_is_confirmed_by_a_status_whose_motion_state_alone_is_readable(
             let pressed = sim.elapsed().as_secs_f64();
             click(shared, Button::Estop).await;
             sleep(1500).await;
-            let estops: Vec<f64> = motion(&sim.requests())
-                .into_iter()
-                .filter(|(t, c)| *t >= pressed && *c == 13)
-                .map(|(t, _)| t)
-                .collect();
+            let estops = commands_after(&sim.requests(), pressed, 13);
             let last = *estops.last().expect("the e-stop went out");
-            let after = sim.elapsed().as_secs_f64();
+            let now = sim.elapsed().as_secs_f64() - pressed;
             assert!(
-                after - last > 0.6,
-                "{name}: no more e-stops once the robot confirmed: {estops:?}, now {after:.2}"
+                now - last > 0.6,
+                "{name}: no more e-stops once the robot confirmed: {estops:?}, now {now:.2}"
             );
             let fault = leds.until(shared, 2000, |i| i.fault == Led::On).await.fault;
             assert_eq!(
@@ -1503,11 +1499,7 @@ async fn a_refused_estop_is_repeated_until_the_robot_confirms_it() {
             "the robot ends in soft e-stop"
         );
         sleep(1000).await;
-        let estops: Vec<f64> = motion(&sim.requests())
-            .into_iter()
-            .filter(|(t, c)| *t >= pressed && *c == 13)
-            .map(|(t, _)| t)
-            .collect();
+        let estops = commands_after(&sim.requests(), pressed, 13);
         assert!(estops.len() >= 4, "3 refused, then one taken: {estops:?}");
         let gaps: Vec<f64> = estops.windows(2).map(|w| w[1] - w[0]).collect();
         assert!(
@@ -1515,10 +1507,10 @@ async fn a_refused_estop_is_repeated_until_the_robot_confirms_it() {
             "repeated at least every 250 ms (with slack): {gaps:?}"
         );
         let last = *estops.last().unwrap();
-        let after = sim.elapsed().as_secs_f64();
+        let now = sim.elapsed().as_secs_f64() - pressed;
         assert!(
-            after - last > 0.6,
-            "no more e-stops once the robot confirmed: last at {last:.2}, now {after:.2}"
+            now - last > 0.6,
+            "no more e-stops once the robot confirmed: last at {last:.2}, now {now:.2}"
         );
     })
     .await;
