@@ -409,6 +409,7 @@ impl App<'_> {
                 self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
             }
+            self.panel(|p| p.commands_waiting(conn.waiting_since()));
             let deadline = [
                 self.panel(|p| p.command_deadline()),
                 conn.expiry(conn.request_timeout()),
@@ -494,16 +495,25 @@ impl App<'_> {
         false
     }
 
-    /// The poll connection: one poll at a time, when due.
+    /// The poll connection: one poll at a time, when due; given up while the robot serves
+    /// it ahead of a stop ([`Panel::stop_passed_over_by`]).
     async fn poll_loop<T: Transport>(&self, conn: &mut Connection<T>) -> ! {
         let mut retry_at = Instant::now();
         let mut followed = 0;
+        let mut giving_way = false;
         loop {
             if self
                 .follow_robot(conn, ConnectionRole::Polls, &mut followed)
                 .await
             {
                 retry_at = Instant::now();
+            }
+            giving_way &= self.panel(|p| p.stop_unanswered());
+            if giving_way {
+                // Until the command connection is answered (or the stop is no longer due):
+                // a robot serving one connection at a time then takes the command one.
+                Timer::after(STOP_RETRY).await;
+                continue;
             }
             if !self
                 .ensure_connected(conn, ConnectionRole::Polls, &mut retry_at, &self.wake_polls)
@@ -517,8 +527,19 @@ impl App<'_> {
                 select(self.wake_polls.wait(), Timer::at(due.min(now + IDLE))).await;
                 continue;
             };
+            let sent = Instant::now();
             match conn.request(&poll, Some(conn.request_timeout())).await {
-                Ok(response) => self.polled(conn, &response),
+                Ok(response) => {
+                    self.polled(conn, &response);
+                    if self.panel(|p| p.stop_passed_over_by(sent)) {
+                        warn!(
+                            "the robot answers polls but not the stop: the poll connection gives way"
+                        );
+                        giving_way = true;
+                        conn.disconnect().await;
+                        self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
+                    }
+                }
                 Err(e) if e.connection_usable() => {
                     warn!("poll failed: {:?}", e);
                     self.panel(|p| p.poll_failed(&poll, Instant::now()));

@@ -24,9 +24,13 @@ use x30_panel::client::{Backoff, Connection};
 use x30_panel::config::Config;
 use x30_panel::panel::NetworkState;
 use x30_panel::panel::{Button, ButtonEvent, Indicators, Led};
-use x30_panel::proto::codes::{GaitState, MotionGait, MotionState, PointInfo, RequestErrorCode};
+use x30_panel::proto::codes::{
+    CommandResult, GaitState, MotionGait, MotionState, ObsState, PointInfo, RequestErrorCode,
+};
 use x30_panel::proto::frame::FrameDecoder;
-use x30_panel::proto::message::{MotionCommand, NavPoint, Request, RequestError, Response};
+use x30_panel::proto::message::{
+    MotionAck, MotionCommand, NavPoint, Perception, Request, RequestError, Response, RobotStatus,
+};
 use x30_sim::{Config as SimConfig, Faults, LogEntry, Simulator};
 
 use sim_flash::{PAGE, SimFlash};
@@ -438,6 +442,98 @@ fn robot_hanging_up_after_each_answer(
         }
     });
     (addr, log)
+}
+
+/// A robot that serves one connection at a time, in the order they came, as a
+/// single-threaded server does: the others wait in its backlog, connected but unread. It
+/// closes the first connection at once, so that it serves the next, the polls', while the
+/// panel's new command connection waits behind it. It answers a status with `MotionState` (6
+/// once an e-stop came), a perception poll with the way clear, a Type 2 with success and
+/// anything else with a Type 0; what it received, with the time.
+fn robot_serving_one_connection_at_a_time(
+    start: std::time::Instant,
+) -> (std::net::SocketAddr, Received) {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    let log = Arc::new(Mutex::new(Vec::new()));
+    let seen = log.clone();
+    std::thread::spawn(move || {
+        let mut state = MotionState::StandingUp;
+        for (served, stream) in listener.incoming().take(100).enumerate() {
+            let Ok(mut stream) = stream else { return };
+            if served == 0 {
+                continue;
+            }
+            let mut decoder = FrameDecoder::new();
+            while let Some((id, request)) = read_request(&mut stream, &mut decoder) {
+                let response = match request {
+                    Request::Status => Response::Status(RobotStatus {
+                        motion_state: state,
+                        ..RobotStatus::UNAVAILABLE
+                    }),
+                    Request::Perception => Response::Perception(Perception {
+                        obs_state: ObsState::Clear,
+                    }),
+                    Request::Motion(command) => {
+                        if command == MotionCommand::SoftEmergencyStop {
+                            state = MotionState::SoftEmergencyStop;
+                        }
+                        Response::Motion(
+                            command.code(),
+                            MotionAck {
+                                value: None,
+                                result: CommandResult::Success,
+                            },
+                        )
+                    }
+                    _ => Response::RequestError(RequestError {
+                        code: RequestErrorCode::ParseFailed,
+                    }),
+                };
+                seen.lock()
+                    .unwrap()
+                    .push((start.elapsed().as_secs_f64(), request));
+                if stream.write_all(&answer(id, &response)).is_err() {
+                    break;
+                }
+            }
+        }
+    });
+    (addr, log)
+}
+
+/// The stop path wins the robot's connection: with a robot that serves one connection at a
+/// time and is serving the polls', an e-stop waiting on the command connection makes the
+/// poll connection give way, and reaches the robot within two seconds (without, not until
+/// the poll connection closes).
+#[tokio::test(flavor = "current_thread")]
+async fn an_estop_gets_the_connection_of_a_robot_that_serves_one_at_a_time() {
+    let start = std::time::Instant::now();
+    let (addr, log) = robot_serving_one_connection_at_a_time(start);
+    let status_read = |log: &[(f64, Request)]| log.iter().any(|(_, r)| *r == Request::Status);
+    let pressed = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        for _ in 0..150 {
+            if status_read(&log.lock().unwrap()) {
+                break;
+            }
+            sleep(20).await;
+        }
+        let pressed = start.elapsed().as_secs_f64();
+        press(shared, Button::Estop, true).await;
+        sleep(3000).await;
+        pressed
+    })
+    .await;
+    let log = log.lock().unwrap();
+    assert!(status_read(&log), "the robot served the poll connection");
+    let estop = log
+        .iter()
+        .find(|(_, r)| *r == Request::Motion(MotionCommand::SoftEmergencyStop))
+        .map(|(t, _)| t - pressed);
+    assert!(
+        estop.is_some_and(|after| after < 2.0),
+        "the e-stop reached the robot {estop:?} s after the press"
+    );
 }
 
 #[tokio::test(flavor = "current_thread")]

@@ -228,6 +228,12 @@ impl<T: Transport> Connection<T> {
         self.connected
     }
 
+    /// Since when the connection has waited for an answer, if it does: the oldest request's
+    /// writing, or the last answer while others are due.
+    pub fn waiting_since(&self) -> Option<Instant> {
+        self.waiting_since
+    }
+
     /// The robot's clock as learned from this connection's answers.
     pub fn clock(&self) -> RobotClock {
         self.clock

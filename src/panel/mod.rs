@@ -28,7 +28,7 @@ pub use monitor::{Monitor, RobotView, Stamped};
 
 use embassy_time::{Duration, Instant};
 
-use crate::client::{ClientError, Health};
+use crate::client::{ANSWER_OVERDUE, ClientError, Health};
 use crate::config::Config;
 use crate::proto::message::{NavResult, Request, Response};
 
@@ -98,6 +98,8 @@ pub struct Panel {
     commands: ConnectionState,
     /// The poll connection.
     polls: ConnectionState,
+    /// Since when the command connection has waited for an answer, if it does.
+    commands_waiting_since: Option<Instant>,
     /// Whether the saved settings could not be read, so the defaults are in use.
     settings_lost: bool,
 }
@@ -136,6 +138,7 @@ impl Panel {
             network: NetworkState::Down,
             commands: ConnectionState::Connecting,
             polls: ConnectionState::Connecting,
+            commands_waiting_since: None,
             settings_lost: false,
         }
     }
@@ -214,6 +217,28 @@ impl Panel {
             ConnectionRole::Navigation => state,
         };
         was != state
+    }
+
+    /// Since when the command connection has waited for an answer (`None`: it does not).
+    pub fn commands_waiting(&mut self, since: Option<Instant>) {
+        self.commands_waiting_since = since;
+    }
+
+    /// Whether a stop still waits on the command connection.
+    pub fn stop_unanswered(&self) -> bool {
+        self.control.stop_pending() && self.commands_waiting_since.is_some()
+    }
+
+    /// Whether the robot served a poll written at `sent` ahead of a stop that has waited
+    /// on the command connection since [`ANSWER_OVERDUE`] before it: a robot that serves
+    /// one connection at a time (or fewer than the panel opens), serving the polls'. The
+    /// poll connection then gives way. A robot merely slow answers in the order it was
+    /// asked, the stop first.
+    pub fn stop_passed_over_by(&self, sent: Instant) -> bool {
+        self.control.stop_pending()
+            && self
+                .commands_waiting_since
+                .is_some_and(|since| since.saturating_add(ANSWER_OVERDUE) <= sent)
     }
 
     /// The next request for the command connection (see [`Control::next_command`]).
