@@ -511,49 +511,58 @@ async fn an_estop_gets_the_connection_of_a_robot_that_serves_one_at_a_time() {
     let start = std::time::Instant::now();
     let (addr, log) = robot_serving_one_connection_at_a_time(start);
     let status_read = |log: &[(f64, Request)]| log.iter().any(|(_, r)| *r == Request::Status);
-    let pressed = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+    let served_polls = async || {
         for _ in 0..150 {
             if status_read(&log.lock().unwrap()) {
                 break;
             }
             sleep(20).await;
         }
-        let pressed = start.elapsed().as_secs_f64();
-        press(shared, Button::Estop, true).await;
-        sleep(3000).await;
-        pressed
-    })
-    .await;
-    let log = log.lock().unwrap();
-    assert!(status_read(&log), "the robot served the poll connection");
-    let estop = log
-        .iter()
-        .find(|(_, r)| *r == Request::Motion(MotionCommand::SoftEmergencyStop))
-        .map(|(t, _)| t - pressed);
+    };
+    let estops = estops_after_press(addr, start, &log, served_polls, 3000).await;
+    assert!(
+        status_read(&log.lock().unwrap()),
+        "the robot served the poll connection"
+    );
+    let estop = estops.first().copied();
     assert!(
         estop.is_some_and(|after| after < 2.0),
         "the e-stop reached the robot {estop:?} s after the press"
     );
 }
 
+/// Runs the application against the scripted robot at `addr`, whose log `log` times from
+/// `start`; presses e-stop once `before` is done, and runs on for `after_ms`. When the robot
+/// received each e-stop, in seconds after the press.
+async fn estops_after_press(
+    addr: std::net::SocketAddr,
+    start: std::time::Instant,
+    log: &Received,
+    before: impl AsyncFnOnce(),
+    after_ms: u64,
+) -> Vec<f64> {
+    let pressed = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        before().await;
+        let pressed = start.elapsed().as_secs_f64();
+        press(shared, Button::Estop, true).await;
+        sleep(after_ms).await;
+        pressed
+    })
+    .await;
+    log.lock()
+        .unwrap()
+        .iter()
+        .filter(|(_, r)| *r == Request::Motion(MotionCommand::SoftEmergencyStop))
+        .map(|(t, _)| t - pressed)
+        .collect()
+}
+
 #[tokio::test(flavor = "current_thread")]
 async fn a_pending_estop_is_not_sent_faster_than_it_repeats_to_a_robot_hanging_up_each_time() {
     let start = std::time::Instant::now();
     let (addr, log) = robot_hanging_up_after_each_answer(start);
-    let pressed = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
-        sleep(500).await;
-        let pressed = start.elapsed().as_secs_f64();
-        press(shared, Button::Estop, true).await;
-        sleep(1000).await;
-        pressed
-    })
-    .await;
+    let estops = estops_after_press(addr, start, &log, async || sleep(500).await, 1000).await;
     let log = log.lock().unwrap();
-    let estops: Vec<f64> = log
-        .iter()
-        .filter(|(_, r)| matches!(r, Request::Motion(MotionCommand::SoftEmergencyStop)))
-        .map(|(t, _)| t - pressed)
-        .collect();
     // Never confirmed, so repeated for the whole second: every 250 ms, and first on each
     // new connection, which the robot hangs up at once; not as fast as it can reconnect.
     assert!(
