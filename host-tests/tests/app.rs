@@ -414,16 +414,25 @@ async fn a_robot_that_hangs_up_after_each_answer_is_not_flooded_and_stops_still_
 /// What a scripted robot received, and when (seconds from the test's start).
 type Received = Arc<Mutex<Vec<(f64, Request)>>>;
 
+/// A robot on loopback, run by `serve` on a thread of its own with its listener and the log
+/// it fills; its address, and that log.
+fn scripted_robot(
+    serve: impl FnOnce(std::net::TcpListener, Received) + Send + 'static,
+) -> (std::net::SocketAddr, Received) {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    let log = Received::default();
+    let seen = log.clone();
+    std::thread::spawn(move || serve(listener, seen));
+    (addr, log)
+}
+
 /// A robot on loopback that answers every request with Type 0 and hangs up at once;
 /// what it received, and when (seconds from `start`).
 fn robot_hanging_up_after_each_answer(
     start: std::time::Instant,
 ) -> (std::net::SocketAddr, Received) {
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-    let addr = listener.local_addr().unwrap();
-    let log = Arc::new(Mutex::new(Vec::new()));
-    let seen = log.clone();
-    std::thread::spawn(move || {
+    scripted_robot(move |listener, seen| {
         for stream in listener.incoming().take(1000) {
             let Ok(mut stream) = stream else { return };
             let seen = seen.clone();
@@ -440,8 +449,7 @@ fn robot_hanging_up_after_each_answer(
                 let _ = stream.write_all(&answer(id, &refused));
             });
         }
-    });
-    (addr, log)
+    })
 }
 
 /// A robot that serves one connection at a time, in the order they came, as a
@@ -453,11 +461,7 @@ fn robot_hanging_up_after_each_answer(
 fn robot_serving_one_connection_at_a_time(
     start: std::time::Instant,
 ) -> (std::net::SocketAddr, Received) {
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-    let addr = listener.local_addr().unwrap();
-    let log = Arc::new(Mutex::new(Vec::new()));
-    let seen = log.clone();
-    std::thread::spawn(move || {
+    scripted_robot(move |listener, seen| {
         let mut state = MotionState::StandingUp;
         for (served, stream) in listener.incoming().take(100).enumerate() {
             let Ok(mut stream) = stream else { return };
@@ -498,8 +502,7 @@ fn robot_serving_one_connection_at_a_time(
                 }
             }
         }
-    });
-    (addr, log)
+    })
 }
 
 /// The stop path wins the robot's connection: with a robot that serves one connection at a
