@@ -563,6 +563,53 @@ fn a_half_open_robot_gets_stops_at_once_and_the_panel_reconnects() {
     finish(panel);
 }
 
+/// A robot that serves one connection at a time (a single-threaded robot_server), serving
+/// the polls' while the panel's command connection waits in its backlog: the poll connection
+/// gives way, and the e-stop reaches the robot within two seconds of the press, not when the
+/// poll connection happens to close.
+#[test]
+fn an_estop_gets_the_connection_of_a_robot_that_serves_one_at_a_time() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+    sim.update_faults(|f| f.one_at_a_time = true);
+    // Drop what is open until the robot serves a new poll connection: the panel reconnects
+    // both, and whichever came first is served, the other left waiting.
+    let mut polls_served = false;
+    for _ in 0..3 {
+        let old = sim.requests().iter().map(|e| e.conn).max().unwrap_or(0);
+        sim.drop_connections();
+        polls_served = eventually(Duration::from_secs(4), || {
+            sim.requests()
+                .iter()
+                .any(|e| e.conn > old && e.message_type == Some(1002))
+        });
+        if polls_served {
+            break;
+        }
+    }
+    assert!(
+        polls_served,
+        "the robot never served a new poll connection\n{}",
+        log_text(&sim)
+    );
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+estop");
+    assert!(
+        eventually(REACTION, || first_command(&sim, pressed, 13).is_some()),
+        "no e-stop reached the robot\n{}",
+        log_text(&sim)
+    );
+    let estop = first_command(&sim, pressed, 13).unwrap() - pressed;
+    assert!(
+        estop < 2.0,
+        "the e-stop reached the robot {estop:.3} s after the press\n{}",
+        log_text(&sim)
+    );
+    panel.send("-estop");
+    finish(panel);
+}
+
 #[test]
 fn stop_during_a_navigation_task_sends_1004_and_zero_velocity() {
     let Some(turn) = turn() else { return };

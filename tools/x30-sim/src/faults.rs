@@ -68,6 +68,11 @@ pub struct Faults {
     /// setting it to a moment still ahead also closes every open connection.
     /// [`crate::Simulator::refuse_connections`] sets it from a duration.
     pub refuse_connections_until: Option<Instant>,
+    /// Serve one connection at a time, as a single-threaded `robot_server` does: while one
+    /// is open, new connections wait in the listener's backlog, connected but unread, and
+    /// are taken in the order they came once it closes. Connections already open when this
+    /// is set stay open.
+    pub one_at_a_time: bool,
     /// Answer nothing on a connection until this long after it opened: answers due sooner
     /// wait until then. A `robot_server` slow to set up each new client.
     pub warm_up: Duration,

@@ -39,6 +39,10 @@ struct Cli {
     /// Refuse connections (accept and close them at once) for MS milliseconds from the start.
     #[arg(long, value_name = "MS")]
     refuse_for_ms: Option<u64>,
+    /// Serve one connection at a time: while one is open, new ones wait in the backlog,
+    /// connected but unread (a single-threaded robot_server).
+    #[arg(long)]
+    one_at_a_time: bool,
     /// Refuse the next N soft emergency stops (Command 13): ErrorCode 1, no state change.
     #[arg(long, value_name = "N", default_value_t = 0)]
     refuse_estops: u32,
@@ -160,6 +164,7 @@ impl Cli {
             faults: Faults {
                 delay: Duration::from_millis(self.delay_ms),
                 type_delays: self.delay_types.clone(),
+                one_at_a_time: self.one_at_a_time,
                 warm_up: Duration::from_millis(self.warm_up_ms),
                 mute: self.mute,
                 refuse_connections_until: self

@@ -211,6 +211,11 @@ pub(crate) fn join_until(handle: JoinHandle<()>, deadline: Instant) {
 /// Accepts connections until shutdown. The listener must be non-blocking.
 pub(crate) fn listen(shared: Arc<Shared>, listener: TcpListener) {
     while !shared.is_shutting_down() {
+        if shared.faults().one_at_a_time && shared.connection_count() > 0 {
+            // Left in the backlog until the open connection closes.
+            thread::sleep(ACCEPT_POLL);
+            continue;
+        }
         match listener.accept() {
             Ok((stream, _)) => {
                 // A connection that cannot be set up is dropped; the next one may work.

@@ -171,6 +171,19 @@ fn refuse_for_ms() {
     ));
 }
 
+/// `--one-at-a-time`: a second connection is answered only once the first closes.
+#[test]
+fn one_at_a_time() {
+    let (_running, addr) = spawn(&["--one-at-a-time"]);
+    let mut first = Client::connect(addr);
+    first.status();
+    let mut second = Client::connect(addr);
+    second.send(&Request::Battery);
+    assert!(second.recv_frame_within(ms(300)).is_none());
+    drop(first);
+    assert!(second.recv_frame_within(ms(5000)).is_some());
+}
+
 #[test]
 fn unreachable_points_fail_tasks_with_41804() {
     let (_running, addr) = spawn(&[

@@ -435,3 +435,27 @@ fn refused_estops_fail_and_change_nothing() {
     assert_eq!(ack.result, CommandResult::Success);
     assert_eq!(client.status().motion_state, MotionState::SoftEmergencyStop);
 }
+
+/// Serving one connection at a time, a second connection is accepted by the kernel but not
+/// read until the first closes; then its waiting request is answered.
+#[test]
+fn one_at_a_time_leaves_the_next_connection_unread_until_the_open_one_closes() {
+    let sim = start_faulty(Faults {
+        one_at_a_time: true,
+        ..Faults::default()
+    });
+    let mut first = Client::connect(sim.addr());
+    first.status();
+    let mut second = Client::connect(sim.addr());
+    second.send(&Request::Status);
+    assert!(
+        second.recv_frame_within(ms(500)).is_none(),
+        "the second connection is answered while the first is open"
+    );
+    assert_eq!(sim.requests().len(), 1, "the second request was read");
+    assert_eq!(sim.connections(), 1);
+    drop(first);
+    let (_, body) = next_body(&mut second);
+    assert!(body.contains("<Type>1002</Type>"), "{body}");
+    assert_eq!(sim.requests().len(), 2);
+}
