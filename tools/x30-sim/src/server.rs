@@ -123,6 +123,13 @@ impl Shared {
         refuse
     }
 
+    /// Whether new connections wait in the backlog: [`Faults::one_at_a_time`], and one is
+    /// open. Reads the one field, not a copy of every fault: the listener asks this every
+    /// [`ACCEPT_POLL`].
+    fn holds_new_connections(&self) -> bool {
+        self.connection_count() > 0 && lock(&self.faults).one_at_a_time
+    }
+
     /// Whether the simulator is shutting down.
     pub fn is_shutting_down(&self) -> bool {
         self.shutdown.load(Ordering::SeqCst)
@@ -211,7 +218,7 @@ pub(crate) fn join_until(handle: JoinHandle<()>, deadline: Instant) {
 /// Accepts connections until shutdown. The listener must be non-blocking.
 pub(crate) fn listen(shared: Arc<Shared>, listener: TcpListener) {
     while !shared.is_shutting_down() {
-        if shared.faults().one_at_a_time && shared.connection_count() > 0 {
+        if shared.holds_new_connections() {
             // Left in the backlog until the open connection closes.
             thread::sleep(ACCEPT_POLL);
             continue;
