@@ -414,16 +414,35 @@ async fn a_robot_that_hangs_up_after_each_answer_is_not_flooded_and_stops_still_
 /// What a scripted robot received, and when (seconds from the test's start).
 type Received = Arc<Mutex<Vec<(f64, Request)>>>;
 
-/// A robot on loopback, run by `serve` on a thread of its own with its listener and the log
-/// it fills; its address, and that log.
+/// Where a scripted robot writes down what it receives.
+#[derive(Clone)]
+struct Recorder {
+    start: std::time::Instant,
+    log: Received,
+}
+
+impl Recorder {
+    /// Writes down `request`, received now.
+    fn record(&self, request: Request) {
+        let at = self.start.elapsed().as_secs_f64();
+        self.log.lock().unwrap().push((at, request));
+    }
+}
+
+/// A robot on loopback, run by `serve` on a thread of its own with its listener and a
+/// recorder that times from `start`; its address, and the recorder's log.
 fn scripted_robot(
-    serve: impl FnOnce(std::net::TcpListener, Received) + Send + 'static,
+    start: std::time::Instant,
+    serve: impl FnOnce(std::net::TcpListener, Recorder) + Send + 'static,
 ) -> (std::net::SocketAddr, Received) {
     let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = listener.local_addr().unwrap();
     let log = Received::default();
-    let seen = log.clone();
-    std::thread::spawn(move || serve(listener, seen));
+    let recorder = Recorder {
+        start,
+        log: log.clone(),
+    };
+    std::thread::spawn(move || serve(listener, recorder));
     (addr, log)
 }
 
@@ -432,17 +451,16 @@ fn scripted_robot(
 fn robot_hanging_up_after_each_answer(
     start: std::time::Instant,
 ) -> (std::net::SocketAddr, Received) {
-    scripted_robot(move |listener, seen| {
+    scripted_robot(start, |listener, recorder| {
         for stream in listener.incoming().take(1000) {
             let Ok(mut stream) = stream else { return };
-            let seen = seen.clone();
+            let recorder = recorder.clone();
             std::thread::spawn(move || {
                 let Some((id, request)) = read_request(&mut stream, &mut FrameDecoder::new())
                 else {
                     return;
                 };
-                let at = start.elapsed().as_secs_f64();
-                seen.lock().unwrap().push((at, request));
+                recorder.record(request);
                 let refused = Response::RequestError(RequestError {
                     code: RequestErrorCode::ParseFailed,
                 });
@@ -461,7 +479,7 @@ fn robot_hanging_up_after_each_answer(
 fn robot_serving_one_connection_at_a_time(
     start: std::time::Instant,
 ) -> (std::net::SocketAddr, Received) {
-    scripted_robot(move |listener, seen| {
+    scripted_robot(start, |listener, recorder| {
         let mut state = MotionState::StandingUp;
         for (served, stream) in listener.incoming().take(100).enumerate() {
             let Ok(mut stream) = stream else { return };
@@ -494,9 +512,7 @@ fn robot_serving_one_connection_at_a_time(
                         code: RequestErrorCode::ParseFailed,
                     }),
                 };
-                seen.lock()
-                    .unwrap()
-                    .push((start.elapsed().as_secs_f64(), request));
+                recorder.record(request);
                 if stream.write_all(&answer(id, &response)).is_err() {
                     break;
                 }

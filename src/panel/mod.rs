@@ -226,7 +226,7 @@ impl Panel {
 
     /// Whether a stop still waits on the command connection.
     pub fn stop_unanswered(&self) -> bool {
-        self.control.stop_pending() && self.commands_waiting_since.is_some()
+        self.stop_waiting_since().is_some()
     }
 
     /// Whether the robot served a poll written at `sent` ahead of a stop that has waited
@@ -235,10 +235,14 @@ impl Panel {
     /// poll connection then gives way. A robot merely slow answers in the order it was
     /// asked, the stop first.
     pub fn stop_passed_over_by(&self, sent: Instant) -> bool {
-        self.control.stop_pending()
-            && self
-                .commands_waiting_since
-                .is_some_and(|since| since.saturating_add(ANSWER_OVERDUE) <= sent)
+        self.stop_waiting_since()
+            .is_some_and(|since| since.saturating_add(ANSWER_OVERDUE) <= sent)
+    }
+
+    /// Since when a stop has waited on the command connection, if one does.
+    fn stop_waiting_since(&self) -> Option<Instant> {
+        self.commands_waiting_since
+            .filter(|_| self.control.stop_pending())
     }
 
     /// The next request for the command connection (see [`Control::next_command`]).
