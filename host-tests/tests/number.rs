@@ -218,7 +218,7 @@ proptest! {
     }
 
     /// A text without exponent reads the same with zeros appended to its fraction: past 19
-    /// bytes that takes the general scan instead of the short one, so the two agree.
+    /// bytes that takes the exact reader instead of the short scan, so the two agree.
     #[test]
     fn short_and_long_scans_agree(text in decimal_text(1..=19)) {
         if !text.contains(['e', 'E']) {
@@ -435,9 +435,10 @@ fn more_than_19_digits_round_correctly() {
 
 #[test]
 fn power_table_seams_match_std() {
-    // 10^e is 5^(16q)·5^r·2^e from two tables: every e the parser reaches (-64..=38), with
-    // mantissas of 1, 9 and 19 digits, and the floats written with those scales.
-    for e in -64..=38 {
+    // The usual text's 10^e is one table entry for each length of its fraction, 0 to 18:
+    // mantissas of 1, 9 and 19 digits with each (past 19 bytes the exact reader takes them,
+    // which must agree), and the floats written with those scales.
+    for fraction in 0..=18 {
         for mantissa in [
             "1",
             "7",
@@ -445,6 +446,19 @@ fn power_table_seams_match_std() {
             "9999999999999999999",
             "1000000000000000001",
         ] {
+            let text = match mantissa.len().checked_sub(fraction) {
+                Some(whole) if whole > 0 => {
+                    format!("{}.{}", &mantissa[..whole], &mantissa[whole..])
+                }
+                _ => format!("0.{}{mantissa}", "0".repeat(fraction - mantissa.len())),
+            };
+            check_parse(&text);
+            check_parse(&format!("-{text}"));
+        }
+    }
+    // Texts with an exponent, over the whole range of floats and past it.
+    for e in -64..=38 {
+        for mantissa in ["1", "7", "123456789", "9999999999999999999"] {
             check_parse(&format!("{mantissa}e{e}"));
             check_parse(&format!("-{mantissa}E{e}"));
         }
@@ -461,8 +475,8 @@ fn power_table_seams_match_std() {
 
 #[test]
 fn nineteen_digit_mantissa_edge() {
-    // Digits are taken while the mantissa is below 10^18: exactly 19 significant ones, leading
-    // zeros not counted; later ones only round.
+    // Texts of 19 bytes and just past them: the short scan takes 19 bytes at most, the
+    // exact reader the rest.
     for text in [
         "1000000000000000000",
         "9999999999999999999",

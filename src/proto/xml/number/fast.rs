@@ -5,12 +5,12 @@
 //! # Reading
 //!
 //! The usual text (digits and at most one point, 19 bytes at most) is read by
-//! [`Decimal::scan_short`], eight digits at a time. `n·10^e` is then approximated with an
-//! [`Approx`], a 64-bit significand and binary exponent, `10^e` being one entry of a table of
-//! negative powers or the product of two factors, `5^(16q)` and `5^r` (`e = 16q + r`):
-//! relative error below `2^-62`. Rounding to `f32` only changes at the *midpoints* between
-//! adjacent floats; a decimal too close to one for that error bound (about one in 2^30, and
-//! exact ties) is read exactly.
+//! [`Decimal::scan_short`], eight digits at a time, as `n·10^e` with `-18 <= e <= 0`. That is
+//! then approximated with an [`Approx`], a 64-bit significand and binary exponent, `10^e`
+//! being one entry of a table of negative powers: relative error below `2^-62`. Rounding to
+//! `f32` only changes at the *midpoints* between adjacent floats; a decimal too close to one
+//! for that error bound (about one in 2^30, and exact ties) is read exactly, as is any other
+//! text (an exponent, more than 19 bytes, a syntax error).
 //!
 //! # Writing
 //!
@@ -27,8 +27,8 @@
 //! zeros included, is written with 8-byte stores.
 
 use super::{
-    Binary, Decimal, Digits, F32_TEXT_MAX, I32_TEXT_MAX, NumberError, ZERO_DIGITS, finite,
-    float_bits, split_sign, two_digit_lanes,
+    Binary, Decimal, F32_TEXT_MAX, I32_TEXT_MAX, ZERO_DIGITS, float_bits, split_sign,
+    two_digit_lanes,
 };
 
 /// `floor(k·log2(5))` for `-64 <= k < 64` (in 12.20 fixed point; checked for each such `k`).
@@ -42,19 +42,6 @@ struct Approx {
     m: u64,
     e: i32,
 }
-
-/// `5^(16q)` for `q = -4..=3` as the significand `m` of an [`Approx`] (`e` is
-/// `log2_pow5(16q) - 63`), rounded to nearest; exact for `q = 0, 1`.
-const POW5_COARSE: [u64; 8] = [
-    0xa87f_ea27_a539_e9a5, // 5^-64
-    0xbb12_7c53_b17e_c159, // 5^-48
-    0xcfb1_1ead_4539_94ba, // 5^-32
-    0xe695_94be_c44d_e15b, // 5^-16
-    0x8000_0000_0000_0000, // 5^0
-    0x8e1b_c9bf_0400_0000, // 5^16
-    0x9dc5_ada8_2b70_b59e, // 5^32
-    0xaf29_8d05_0e43_95d7, // 5^48
-];
 
 /// `10^-k` for `k = 0..20` as the significand of an [`Approx`] (`e` is
 /// `-k + log2_pow5(-k) - 63`), rounded to nearest.
@@ -102,120 +89,64 @@ impl Approx {
         }
     }
 
-    /// `10^e` for `-64 <= e < 64`, as `2^e·5^(16q)·5^r` with `0 <= r < 16`: one product of
-    /// a table entry, within `2^-64` (relative), and `5^r` (exact: `5^15 < 2^35`), truncated
-    /// (below `2^-63` more), so within `3·2^-64`; exact for `0 <= e < 28`. The exponents
-    /// of usual float text, `-19 <= e <= 0` (a fraction's digits), are one entry of
-    /// [`POW10_NEGATIVE`] instead, within `2^-64`, which saves the product.
-    fn pow10(e: i32) -> Self {
-        if let Some(&m) = usize::try_from(-e).ok().and_then(|k| POW10_NEGATIVE.get(k)) {
-            return Approx {
-                m,
-                e: e + log2_pow5(e) - 63,
-            };
-        }
-        let (q, r) = (e >> 4, e & 15);
-        let coarse = Approx {
-            // `q + 4` is in the table for every `e` in range; past it, one is as good as any.
-            m: POW5_COARSE
-                .get((q + 4) as usize)
-                .copied()
-                .unwrap_or(1 << 63),
-            e: log2_pow5(16 * q) - 63,
-        };
-        // `0 <= r < 16`: the conversion is lossless.
-        coarse.mul(Approx::new(5u64.pow(r as u32), e))
+    /// `10^e` for `-19 <= e <= 0` (a fraction's digits), one entry of [`POW10_NEGATIVE`],
+    /// within `2^-64` (relative); `None` for any other `e`.
+    fn pow10(e: i32) -> Option<Self> {
+        let m = *POW10_NEGATIVE.get(usize::try_from(-e).ok()?)?;
+        Some(Approx {
+            m,
+            e: e + log2_pow5(e) - 63,
+        })
     }
 }
 
 /// log2 of the distance to a midpoint, in units of the approximation's last bit, within which
-/// the rounding is settled exactly. The approximation of `n·10^e` is within `5·2^-64`
-/// (relative: [`Approx::pow10`] and one more product), plus `10^-18` for dropped digits; with
-/// the significand below 2^64 that is under 24 units, and 2^7 leaves a safety factor of five.
+/// the rounding is settled exactly. The approximation of `n·10^e` is within `3·2^-64`
+/// (relative: [`Approx::pow10`], and the product's truncation); with the significand below
+/// 2^64 that is under 3 units, and 2^7 leaves a wide margin.
 const MIDPOINT_MARGIN_BITS: u32 = 7;
 
-/// [`super::parse_f32`], if the text's first 19 significant digits settle it: syntax
-/// errors, zero, values out of range, and (with [`Decimal::approximate`]) almost every
-/// other decimal. `None` for the rest, which must be read exactly.
-pub(super) fn parse_f32(text: &[u8]) -> Option<Result<f32, NumberError>> {
-    let decimal = match split_sign(text) {
-        Ok((negative, body)) => Decimal::scan_short(negative, body).map(Ok),
-        Err(_) => None,
-    };
-    let decimal = match decimal.unwrap_or_else(|| Decimal::<u64>::scan(text)) {
-        Ok(decimal) => decimal,
-        Err(error) => return Some(Err(error)),
-    };
+/// [`super::parse_f32`] for the usual text (see [`Decimal::scan_short`]), if its
+/// approximation settles it ([`Decimal::approximate`]); `None` for any other text, and for
+/// the rare decimal too near a midpoint between floats, which are read exactly (syntax
+/// errors included).
+pub(super) fn parse_f32(text: &[u8]) -> Option<f32> {
+    let (negative, body) = split_sign(text).ok()?;
+    let decimal = Decimal::scan_short(negative, body)?;
     let magnitude = if decimal.mantissa == 0 {
         0.0
-    } else if decimal.exponent > 38 {
-        // The value lies in [10^exponent, 10^(19+exponent)]: at least 10^39 > f32::MAX.
-        return Some(Err(NumberError::OutOfRange));
-    } else if decimal.exponent < -64 {
-        // At most 10^-46, less than half the smallest subnormal 2^-149.
-        0.0
     } else {
-        // Now -64 <= exponent <= 38, the range of the powers of ten.
-        match finite(decimal.approximate()?) {
-            Ok(magnitude) => magnitude,
-            Err(error) => return Some(Err(error)),
-        }
+        f32::from_bits(decimal.approximate()?)
     };
-    Some(Ok(if decimal.negative {
+    Some(if decimal.negative {
         -magnitude
     } else {
         magnitude
-    }))
-}
-
-/// A mantissa at or above this takes no more digits: 19 significant digits are kept, and any
-/// 19 fit a `u64`.
-const MANTISSA_FULL: u64 = 1_000_000_000_000_000_000;
-
-/// Up to 19 significant digits, in a word.
-impl Digits for u64 {
-    const NONE: Self = 0;
-
-    fn push(&mut self, digit: u8) -> bool {
-        // Leading zeros are taken too, and leave the mantissa zero.
-        let room = *self < MANTISSA_FULL;
-        if room {
-            *self = *self * 10 + u64::from(digit);
-        }
-        room
-    }
+    })
 }
 
 impl Decimal<u64> {
-    /// The bits of the float nearest to the decimal (`mantissa·10^exponent`, with
-    /// `-64 <= exponent <= 38`), if its approximation settles it; `None` if the decimal
-    /// lies too near a midpoint between two floats for the approximation's error.
+    /// The bits of the float nearest to the decimal, if its approximation settles it;
+    /// `None` if the decimal lies too near a midpoint between two floats for the
+    /// approximation's error. The decimal is one [`Decimal::scan_short`] read, with a
+    /// nonzero mantissa: it lies in `[10^-18, 10^19)`, so its float is normal and finite.
     fn approximate(&self) -> Option<u32> {
-        let v = Approx::new(self.mantissa, 0).mul(Approx::pow10(self.exponent));
-        // Keep 24 bits below the leading one, or fewer where subnormals have a fixed last bit.
-        let lsb = (v.e + 63 - 23).max(-149);
-        // At least 40; past 64 the decimal is below half the smallest subnormal, but
-        // perhaps by less than the error.
-        let drop = (lsb - v.e).unsigned_abs();
-        if drop > 64 {
-            return None;
-        }
-        // `rest`: the dropped bits, left-aligned; exactly 2^63 is the midpoint.
-        let (kept, rest) = match v.m.checked_shr(drop) {
-            Some(kept) => (kept, v.m << (64 - drop)),
-            None => (0, v.m),
-        };
+        let v = Approx::new(self.mantissa, 0).mul(Approx::pow10(self.exponent)?);
+        // The float keeps 24 bits from the leading one. `rest`, the bits below them
+        // left-aligned, is exactly 2^63 at the midpoint.
+        const DROPPED: u32 = 64 - 24;
+        let (kept, rest) = (v.m >> DROPPED, v.m << (64 - DROPPED));
         const HALF: u64 = 1 << 63;
-        let margin = 1u64 << (64 - drop + MIDPOINT_MARGIN_BITS);
-        if rest.abs_diff(HALF) <= margin {
+        if rest.abs_diff(HALF) <= 1 << (64 - DROPPED + MIDPOINT_MARGIN_BITS) {
             return None;
         }
-        Some(float_bits(lsb, kept as u32, rest > HALF))
+        Some(float_bits(v.e + DROPPED as i32, kept as u32, rest > HALF))
     }
 
-    /// [`Decimal::scan`] for the usual text, digits with at most one '.' and no exponent,
-    /// short enough (19 bytes) that no digit needs dropping: two tight loops, one each side
-    /// of the point. `None` for anything else, which the general scan reads or refuses.
+    /// The usual text of a float, digits with at most one '.' and no exponent, short enough
+    /// (19 bytes) that every digit fits the mantissa, read in two tight loops, one each side
+    /// of the point: the exponent is then `-18..=0`. `None` for anything else, which the
+    /// exact reader reads or refuses.
     fn scan_short(negative: bool, body: &[u8]) -> Option<Self> {
         if body.len() > 19 {
             return None;

@@ -218,17 +218,16 @@ fn float_bits(lsb: i32, kept: u32, up: bool) -> u32 {
 ///
 /// No surrounding whitespace, no "inf"/"nan" (answers read those with
 /// [`parse_non_finite`]), no hex; ".5" and "5." are accepted (C `strtod` does). The result
-/// is correctly rounded (round-half-even) to `f32` for any number of digits: 19 significant
-/// ones are read at once, and only a text that lies near the midpoint between two floats
-/// after them is read again, with up to 120. Values that round above `f32::MAX`
+/// is correctly rounded (round-half-even) to `f32` for any number of digits (up to 120
+/// significant ones settle it). Values that round above `f32::MAX`
 /// are [`NumberError::OutOfRange`]; values too small for the smallest subnormal become ±0.
 pub fn parse_f32(text: &[u8]) -> Result<f32, NumberError> {
-    // The default build reads the text with 19 digits in a word and settles almost every
-    // decimal by approximation; the rest, and every decimal in a `compact` build, is read
-    // exactly.
+    // The default build reads the usual text (no exponent, 19 bytes at most) in a word and
+    // settles almost every such decimal by approximation; the rest, and every decimal in a
+    // `compact` build, is read exactly.
     #[cfg(not(feature = "compact"))]
     if let Some(value) = fast::parse_f32(text) {
-        return value;
+        return Ok(value);
     }
     let decimal = Decimal::<Exact>::scan(text)?;
     let magnitude = decimal.magnitude()?;
@@ -289,15 +288,6 @@ struct Decimal<D> {
     sticky: bool,
 }
 
-/// The significant digits of a decimal as they are read.
-trait Digits {
-    /// No digit yet.
-    const NONE: Self;
-    /// Takes `digit` after the digits taken, or returns `false` if there is no room for it,
-    /// which drops it.
-    fn push(&mut self, digit: u8) -> bool;
-}
-
 /// The significant digits that settle any decimal's rounding: up to [`EXACT_DIGITS`] of them.
 struct Exact {
     digits: Big,
@@ -305,12 +295,15 @@ struct Exact {
     count: u32,
 }
 
-impl Digits for Exact {
+impl Exact {
+    /// No digit yet.
     const NONE: Self = Exact {
         digits: Big::ZERO,
         count: 0,
     };
 
+    /// Takes `digit` after the digits taken, or returns `false` if there is no room for it,
+    /// which drops it.
     fn push(&mut self, digit: u8) -> bool {
         let room = self.count < EXACT_DIGITS;
         if room {
@@ -321,13 +314,13 @@ impl Digits for Exact {
     }
 }
 
-impl<D: Digits> Decimal<D> {
+impl Decimal<Exact> {
     /// Reads the syntax of a float: sign, digits and '.', optional exponent.
     fn scan(text: &[u8]) -> Result<Self, NumberError> {
         let (negative, body) = split_sign(text)?;
         let mut decimal = Decimal {
             negative,
-            mantissa: D::NONE,
+            mantissa: Exact::NONE,
             exponent: 0,
             sticky: false,
         };
@@ -367,9 +360,7 @@ impl<D: Digits> Decimal<D> {
         decimal.exponent = decimal.exponent.saturating_add(written_exponent);
         Ok(decimal)
     }
-}
 
-impl Decimal<Exact> {
     /// The correctly rounded magnitude.
     fn magnitude(&self) -> Result<f32, NumberError> {
         let Exact { digits, count } = &self.mantissa;
