@@ -282,7 +282,7 @@ impl Window {
     }
 
     /// The shortest integer in the window, nearest to `y`, ties to the larger one; returned as
-    /// digits, decimal exponent and number of digits. Inlined, like [`super::render`], so
+    /// digits, decimal exponent and number of digits. Inlined, like [`render`], so
     /// that the float writer's usual path makes no call.
     #[inline(always)]
     pub(super) fn pick(&self) -> (u32, i32, usize) {

@@ -33,18 +33,13 @@ mod big;
 mod exact;
 #[cfg(not(feature = "compact"))]
 mod fast;
-#[cfg(feature = "compact")]
 mod plain;
 
 use big::Big;
 #[cfg(not(feature = "compact"))]
-use fast::render;
-#[cfg(not(feature = "compact"))]
 pub use fast::short_int_prefix;
 #[cfg(not(feature = "compact"))]
 pub use fast::write_i32;
-#[cfg(feature = "compact")]
-use plain::render;
 #[cfg(feature = "compact")]
 pub use plain::write_i32;
 
@@ -441,20 +436,21 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
 ///
 /// In the default build, the usual float's digits are chosen by [`fast::Window`] and
 /// written here without a call, which would make the compiler save and restore more
-/// registers. Zero and any other float go to [`write_exact`], so the code that writes the
-/// digits is here twice (about 500 bytes of flash for 5 % of the 1002 answer's encode).
+/// registers. Zero and any other float go to [`write_exact`].
 #[inline(never)]
 pub(crate) fn write_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
     #[cfg(not(feature = "compact"))]
     if let Some(window) = fast::Window::new(value.to_bits() & !(1 << 31)) {
         let (digits, exponent, len) = window.pick();
-        return render(value.is_sign_negative(), digits, exponent, len, out);
+        return fast::render(value.is_sign_negative(), digits, exponent, len, out);
     }
     write_exact(value, out)
 }
 
 /// [`write_finite`] for zero and for a float the fast path does not take (every float in a
-/// `compact` build).
+/// `compact` build). Its text is written digit by digit (`plain`), in the default build too:
+/// this path is rare there, and a second copy of the fast path's word-at-a-time writing
+/// took 292 bytes more flash.
 #[cfg_attr(not(feature = "compact"), cold)]
 #[inline(never)]
 fn write_exact(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
@@ -462,7 +458,7 @@ fn write_exact(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
         0 => (0, 0, 1),
         bits => exact::shortest(bits),
     };
-    render(value.is_sign_negative(), digits, exponent, len, out)
+    plain::render(value.is_sign_negative(), digits, exponent, len, out)
 }
 
 /// Writes a NaN or an infinity as C's `printf` does (`nan`, `-nan`, `inf`, `-inf`), for

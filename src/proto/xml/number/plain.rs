@@ -1,9 +1,12 @@
-//! The `compact` build's number text: digit by digit, which takes the least flash. The
+//! Number text digit by digit, which takes the least flash: all of it in a `compact` build;
+//! in the default build, the rare floats its fast path leaves to the exact writer. The
 //! default build writes the same text a word at a time (`fast`).
 
+#[cfg(feature = "compact")]
 use super::I32_TEXT_MAX;
 
 /// Writes an integer in decimal; returns bytes written.
+#[cfg(feature = "compact")]
 pub fn write_i32(value: i32, out: &mut [u8; I32_TEXT_MAX]) -> usize {
     let magnitude = value.unsigned_abs();
     let mut len = 1;
