@@ -8,7 +8,7 @@
 #
 # The targets: frame_xml (frame decoder and both message decoders on a byte stream) and
 # read_paths (the reader's layout shortcuts against its general path, the answers' writer
-# against its general path, and decode(encode(x)) == x). Each runs for SECONDS, default 30,
+# against its general path, decode(encode(x)) == x, and the number text against Rust's own). Each runs for SECONDS, default 30,
 # beside the other (a core each),
 # first against the codec as the boards build it, then against its `compact` build (the one
 # that meets the flash targets, whose reader and number text take other code). The fuzzer

@@ -11,7 +11,11 @@
 //! - every message a decoder accepts encodes, and decoding that encoding gives the same
 //!   message and `Time` again;
 //! - an answer encodes to the same bytes through `Response::encode` (each item by code of
-//!   its own) and `Response::encode_general` (through the item tables).
+//!   its own) and `Response::encode_general` (through the item tables);
+//! - the number text agrees with Rust's own: `parse_f32` reads each text between the
+//!   body's tags as `str::parse` does, and the float of the body's first four bytes is
+//!   written as `{}` writes it. The fast paths and the exact conversions they leave the
+//!   rest to must both agree with it.
 //!
 //! Build and run with `scripts/fuzz.sh`.
 #![no_main]
@@ -20,6 +24,7 @@ use libfuzzer_sys::fuzz_target;
 use std::fmt::Debug;
 use x30_panel::proto::message::{Decoded, Request, Response};
 use x30_panel::proto::time::Timestamp;
+use x30_panel::proto::xml::number::{F32_TEXT_MAX, parse_f32, write_f32};
 
 #[path = "../../tests/common/reader_trace.rs"]
 mod reader_trace;
@@ -28,6 +33,7 @@ mod reader_trace;
 const ENCODE_BUF: usize = 16 * 1024;
 
 fuzz_target!(|body: &[u8]| {
+    check_number_text(body);
     assert_eq!(
         reader_trace::reader_trace(body, true),
         reader_trace::reader_trace(body, false),
@@ -92,5 +98,39 @@ fn check_direction<M: Debug, E: Debug, W: Debug>(
             format!("{:?}", Ok::<_, ()>((decoded.time, decoded.message))),
             "{what}: round trip"
         );
+    }
+}
+
+/// `parse_f32` of each text between the body's tags (the items' numbers of a seed) against
+/// `str::parse::<f32>`, and `write_f32` of the float of its first four bytes against `{}`.
+fn check_number_text(body: &[u8]) {
+    for text in body.split(|&b| b == b'<' || b == b'>') {
+        let Ok(text) = std::str::from_utf8(text) else {
+            continue;
+        };
+        let ours = parse_f32(text.as_bytes()).map(f32::to_bits);
+        // `str::parse` also reads the words for NaN and infinity, which the protocol's
+        // numbers never are; a number beyond the range is infinite there, out of range here.
+        let word = text
+            .bytes()
+            .any(|b| b.is_ascii_alphabetic() && !b.eq_ignore_ascii_case(&b'e'));
+        match text.parse::<f32>() {
+            Ok(_) if word => assert!(ours.is_err(), "parse_f32({text:?}) read a word: {ours:?}"),
+            Ok(v) if v.is_infinite() => assert!(ours.is_err(), "parse_f32({text:?}): {ours:?}"),
+            Ok(v) => assert_eq!(ours, Ok(v.to_bits()), "parse_f32({text:?})"),
+            Err(_) => assert!(ours.is_err(), "parse_f32({text:?}) read {ours:?}"),
+        }
+    }
+    if let Some(bits) = body.first_chunk::<4>() {
+        let value = f32::from_le_bytes(*bits);
+        let mut out = [0u8; F32_TEXT_MAX];
+        match write_f32(value, &mut out) {
+            Ok(n) => assert_eq!(
+                out.get(..n),
+                Some(format!("{value}").as_bytes()),
+                "write_f32({value:?})"
+            ),
+            Err(_) => assert!(!value.is_finite(), "write_f32({value:?}) refused"),
+        }
     }
 }
