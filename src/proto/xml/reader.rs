@@ -196,10 +196,8 @@ impl<'a> Tokenizer<'a> {
     /// of name bytes. Consumes them and returns `true` exactly where
     /// [`Tokenizer::next_token`] would have skipped the same declaration and whitespace and
     /// read `Start(name)` without error; otherwise consumes nothing.
-    // Out of line, as `plain_start`: inlined into the document reader (one copy for
-    // requests and answers, its items handler called through a pointer), they made the
-    // reader's loop slower by several percent (measured).
-    #[inline(never)]
+    // Left to the compiler: kept out of line, as `plain_start` is, it took 16 instructions
+    // and (on the microcontroller) 56 bytes more a decode (callgrind, on 0886527).
     pub fn plain_root(&mut self, name: &'static [u8]) -> bool {
         if !self.shortcuts_on() || self.place != Place::Prolog {
             return false;
@@ -232,7 +230,9 @@ impl<'a> Tokenizer<'a> {
     /// `name` is made of name bytes: consumes it and returns `true` exactly where
     /// [`Tokenizer::next_token`] would have read whitespace text and `Start(name)` without
     /// error; otherwise consumes nothing.
-    // Out of line: see `plain_root`.
+    // Out of line: inlined into the document reader (one copy for requests and answers, its
+    // items handler called through a pointer), it made the reader's loop slower by several
+    // percent (measured).
     #[inline(never)]
     pub fn plain_start(&mut self, name: &'static [u8]) -> bool {
         let Some((at, tag)) = self.simple_start() else {
@@ -293,7 +293,6 @@ impl<'a> Tokenizer<'a> {
     /// element, and an element inside another only below the deepest level, so a depth of 1
     /// to `MAX_DEPTH - 1` (an open element means the tokenizer is inside the root), tested
     /// in one comparison.
-    #[inline(always)]
     fn may_take_elements(&self) -> bool {
         self.shortcuts_on() && self.depth.wrapping_sub(1) < MAX_DEPTH - 1
     }
@@ -615,7 +614,6 @@ fn is(b: u8, classes: u8) -> bool {
 }
 
 /// Length of the run of bytes of `classes` at the start of `bytes`.
-#[inline(always)]
 fn run(bytes: &[u8], classes: u8) -> usize {
     bytes.iter().take_while(|&&b| is(b, classes)).count()
 }
@@ -677,7 +675,6 @@ fn text_len(bytes: &[u8]) -> Option<usize> {
 /// alone gives. `head`, where the caller has it, is `name`'s first 16 bytes with whatever
 /// follows them, so that a name shorter than that is compared in one masked piece (the item
 /// lines of [`Tokenizer::plain_run`]).
-#[inline(always)]
 pub fn plain_item<T>(
     tag: &[u8],
     name: &[u8],
@@ -724,7 +721,6 @@ pub fn plain_text(content: &[u8]) -> Option<(&[u8], usize)> {
 
 /// Whether `bytes` starts with `prefix`. Names of up to 16 bytes are compared as two
 /// overlapping fixed-size pieces: a call to `memcmp` costs more than such a short compare.
-#[cfg_attr(not(feature = "compact"), inline(always))]
 fn has_prefix(bytes: &[u8], prefix: &[u8]) -> bool {
     fn same<const N: usize>(a: &[u8], b: &[u8], at: usize) -> bool {
         let a = a.get(at..).and_then(|a| a.first_chunk::<N>());
@@ -766,7 +762,6 @@ fn element_len(name_len: usize, text_len: usize) -> usize {
 }
 
 /// Whether `bytes` starts with the tag name `name` and the `>` that closes it.
-#[inline(always)]
 fn is_tag(bytes: &[u8], name: &[u8]) -> bool {
     has_prefix(bytes, name) && bytes.get(name.len()) == Some(&b'>')
 }

@@ -147,7 +147,6 @@ pub(super) fn shortest(bits: u32) -> (u32, i32, usize) {
 }
 
 /// Whether `r + high` reaches `s`: passes it, or meets it where the interval holds its ends.
-#[inline(never)]
 fn reaches(r: &Big, high: &Big, s: &Big, inclusive: bool) -> bool {
     let mut end = *r;
     end.add(high);

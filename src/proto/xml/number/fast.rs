@@ -207,7 +207,6 @@ fn eight_digits(chunk: [u8; 8]) -> Option<u64> {
 /// [`super::parse_int_prefix`] for the usual integer text, one to seven digits without a
 /// sign, with more bytes after it: its value and length, read as one word. `None` for any
 /// other text, which `parse_int_prefix` reads.
-#[inline(always)]
 pub fn short_int_prefix(text: &[u8]) -> Option<(u32, usize)> {
     const ONES: u64 = u64::from_le_bytes([1; 8]);
     let word = u64::from_le_bytes(*text.first_chunk::<8>()?);
