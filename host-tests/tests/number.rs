@@ -456,6 +456,14 @@ fn power_table_seams_match_std() {
             check_parse(&format!("-{text}"));
         }
     }
+    // The longest fraction the short scan takes, 18 digits, has no digit before the point.
+    for text in [
+        ".123456789012345678",
+        "-.999999999999999999",
+        ".000000000000000001",
+    ] {
+        check_parse(text);
+    }
     // Texts with an exponent, over the whole range of floats and past it.
     for e in -64..=38 {
         for mantissa in ["1", "7", "123456789", "9999999999999999999"] {

@@ -43,9 +43,9 @@ struct Approx {
     e: i32,
 }
 
-/// `10^-k` for `k = 0..20` as the significand of an [`Approx`] (`e` is
-/// `-k + log2_pow5(-k) - 63`), rounded to nearest.
-const POW10_NEGATIVE: [u64; 20] = [
+/// `10^-k` for `k = 0..=18` (the usual text's fraction lengths) as the significand of an
+/// [`Approx`] (`e` is `-k + log2_pow5(-k) - 63`), rounded to nearest.
+const POW10_NEGATIVE: [u64; 19] = [
     0x8000_0000_0000_0000,
     0xcccc_cccc_cccc_cccd,
     0xa3d7_0a3d_70a3_d70a,
@@ -65,7 +65,6 @@ const POW10_NEGATIVE: [u64; 20] = [
     0xe695_94be_c44d_e15b,
     0xb877_aa32_36a4_b449,
     0x9392_ee8e_921d_5d07,
-    0xec1e_4a7d_b695_61a5,
 ];
 
 impl Approx {
@@ -89,7 +88,7 @@ impl Approx {
         }
     }
 
-    /// `10^e` for `-19 <= e <= 0` (a fraction's digits), one entry of [`POW10_NEGATIVE`],
+    /// `10^e` for `-18 <= e <= 0` (a fraction's digits), one entry of [`POW10_NEGATIVE`],
     /// within `2^-64` (relative); `None` for any other `e`.
     fn pow10(e: i32) -> Option<Self> {
         let m = *POW10_NEGATIVE.get(usize::try_from(-e).ok()?)?;
