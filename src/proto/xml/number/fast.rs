@@ -68,12 +68,12 @@ const POW10_NEGATIVE: [u64; 19] = [
 ];
 
 impl Approx {
-    /// `v·2^e`, exactly (`v > 0`).
-    fn new(v: u64, e: i32) -> Self {
+    /// The integer `v`, exactly (`v > 0`).
+    fn new(v: u64) -> Self {
         let shift = v.leading_zeros();
         Approx {
             m: v.checked_shl(shift).unwrap_or(0),
-            e: e - shift as i32,
+            e: -(shift as i32),
         }
     }
 
@@ -130,7 +130,7 @@ impl Decimal<u64> {
     /// approximation's error. The decimal is one [`Decimal::scan_short`] read, with a
     /// nonzero mantissa: it lies in `[10^-18, 10^19)`, so its float is normal and finite.
     fn approximate(&self) -> Option<u32> {
-        let v = Approx::new(self.mantissa, 0).mul(Approx::pow10(self.exponent)?);
+        let v = Approx::new(self.mantissa).mul(Approx::pow10(self.exponent)?);
         // The float keeps 24 bits from the leading one. `rest`, the bits below them
         // left-aligned, is exactly 2^63 at the midpoint.
         const DROPPED: u32 = 64 - 24;
