@@ -179,11 +179,14 @@ const LINE_TEMPLATE: [u8; ITEM_OPEN.len() + 8] =
 #[inline(never)]
 fn fill(out: &mut [u8], template: &[u8], fields: &[&[u8]]) -> Result<usize, WriteError> {
     let mut len = 0;
-    for byte in template {
-        let piece = fields
-            .get(usize::from(*byte))
-            .copied()
-            .unwrap_or(core::slice::from_ref(byte));
+    for &byte in template {
+        // A template byte is stored as it is: copied as a piece of its own, each byte would
+        // cost a call to `memcpy`.
+        let Some(piece) = fields.get(usize::from(byte)) else {
+            *out.get_mut(len).ok_or(WriteError::BufferFull)? = byte;
+            len += 1;
+            continue;
+        };
         let end = len + piece.len();
         out.get_mut(len..end)
             .ok_or(WriteError::BufferFull)?
