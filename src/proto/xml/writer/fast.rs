@@ -159,7 +159,6 @@ impl ItemName {
     /// is not a multiple of them: a copy of a length known only at run time would be a call
     /// to `memcpy`, a third of a request's line. Nothing is written where it does not fit,
     /// which the callers' offsets rule out.
-    #[inline(always)]
     fn put(&self, window: &mut [u8; LINE_WINDOW], at: usize) {
         let name = self.0;
         let n = name.len();
