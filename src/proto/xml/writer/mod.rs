@@ -175,8 +175,10 @@ const LINE_TEMPLATE: [u8; ITEM_OPEN.len() + 8] =
 /// (see [`HEADER_TEMPLATE`]) replaced by that field; returns the length written.
 // Out of line: one loop writes the header and every line appended, where a call for each
 // of their pieces would be repeated at every caller. It takes the buffer's rest, not the
-// writer, so that a caller's writer stays in registers across the call.
-#[inline(never)]
+// writer, so that a caller's writer stays in registers across the call. A `compact` build
+// keeps its one caller, `DocumentWriter::fill`, out of line instead, and this inside it
+// (68 bytes less).
+#[cfg_attr(not(feature = "compact"), inline(never))]
 fn fill(out: &mut [u8], template: &[u8], fields: &[&[u8]]) -> Result<usize, WriteError> {
     let mut len = 0;
     for &byte in template {
