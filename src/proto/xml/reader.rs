@@ -304,7 +304,6 @@ impl<'a> Tokenizer<'a> {
     /// one, so that the run consumes exactly the whitespace and elements the general path
     /// would have read without error.
     #[cfg(not(feature = "compact"))]
-    #[inline(always)]
     pub fn plain_run(&mut self, mut line: impl FnMut(&'a [u8]) -> Option<usize>) {
         if !self.may_take_elements() {
             return;
@@ -713,7 +712,6 @@ fn same_head(a: &[u8; 16], b: &[u8; 16], n: usize) -> bool {
 
 /// For a [`plain_item`] whose text is a float's: the text up to the first `<` or `&`.
 #[cfg(not(feature = "compact"))]
-#[inline(always)]
 pub fn plain_text(content: &[u8]) -> Option<(&[u8], usize)> {
     let len = text_len(content)?;
     Some((content.get(..len)?, len))
