@@ -17,11 +17,12 @@
 //!   `#[global_allocator]` wraps `System`).
 //!
 //! Then the binary times each operation itself (warm-up, then the best of many short
-//! samples, ours and the reference sampled alternately so that load from other processes
-//! falls on both alike) and prints a summary table with the speedups against the project's
-//! targets (decode and encode ≥ 10×, zero allocations), the tokenizer comparison, and a
-//! breakdown of where our 1002 decode and encode spend their time; criterion then measures
-//! every operation. Timing is reported, never asserted.
+//! samples, every operation sampled in turn, round after round, so that load from other
+//! processes falls on ours and the reference alike and spreads over each one's samples)
+//! and prints a summary table with the speedups against the project's targets (decode and
+//! encode ≥ 10×, zero allocations), the tokenizer comparison, and a breakdown of where our
+//! 1002 decode and encode spend their time; criterion then measures every operation.
+//! Timing is reported, never asserted.
 //!
 //! Knobs: `--quick` (criterion's quick mode; also shortens the summary timing),
 //! `X30_BENCH_MEASURE_MS` (criterion measurement time per benchmark, default 1500 ms;
@@ -643,56 +644,50 @@ struct Budget {
     samples: usize,
 }
 
-/// Warms `f` up for `budget.warm_up`; returns how many calls make one sample.
-fn calibrate<R>(budget: Budget, f: &mut impl FnMut() -> R) -> u64 {
+/// One operation as the summary times it: called with a batch size, it makes that many
+/// calls and returns the time per call in ns. Boxed so that operations with different
+/// results take turns in one loop; the call through the box is made once a batch.
+type Operation<'a> = Box<dyn FnMut(u64) -> f64 + 'a>;
+
+/// `f` as an [`Operation`].
+fn operation<'a, R>(mut f: impl FnMut() -> R + 'a) -> Operation<'a> {
+    Box::new(move |batch| {
+        let start = Instant::now();
+        for _ in 0..batch {
+            black_box(f());
+        }
+        start.elapsed().as_secs_f64() * 1e9 / batch as f64
+    })
+}
+
+/// Warms `op` up for `budget.warm_up`; returns how many calls make one sample.
+fn calibrate(budget: Budget, op: &mut Operation) -> u64 {
+    // Batches of a few calls, so that reading the clock adds little to the estimate.
+    const WARM_UP_BATCH: u64 = 16;
     let start = Instant::now();
     let mut calls = 0u64;
     while start.elapsed() < budget.warm_up {
-        black_box(f());
-        calls += 1;
+        op(WARM_UP_BATCH);
+        calls += WARM_UP_BATCH;
     }
     let per_call = start.elapsed().as_secs_f64() / calls.max(1) as f64;
     ((budget.sample.as_secs_f64() / per_call.max(1e-9)) as u64).max(1)
 }
 
-/// Time per call, in ns, over one batch of `batch` calls.
-fn sample<R>(f: &mut impl FnMut() -> R, batch: u64) -> f64 {
-    let start = Instant::now();
-    for _ in 0..batch {
-        black_box(f());
-    }
-    start.elapsed().as_secs_f64() * 1e9 / batch as f64
-}
-
-/// The fastest of the samples: on a shared machine other processes only ever add time.
-fn best(samples: &[f64]) -> f64 {
-    samples.iter().copied().fold(f64::INFINITY, f64::min)
-}
-
-/// Time per call of `f`, in ns: warm-up, then the best of `budget.samples` batches sized
-/// to last about `budget.sample` each.
-fn time_op<R>(budget: Budget, mut f: impl FnMut() -> R) -> f64 {
-    let batch = calibrate(budget, &mut f);
-    let samples: Vec<f64> = (0..budget.samples).map(|_| sample(&mut f, batch)).collect();
-    best(&samples)
-}
-
-/// Like [`time_op`] for two operations that are compared, sampled alternately so that
-/// load from other processes falls on both alike.
-fn time_pair<A, B>(
-    budget: Budget,
-    mut f: impl FnMut() -> A,
-    mut g: impl FnMut() -> B,
-) -> (f64, f64) {
-    let batch_f = calibrate(budget, &mut f);
-    let batch_g = calibrate(budget, &mut g);
-    let mut samples_f = Vec::with_capacity(budget.samples);
-    let mut samples_g = Vec::with_capacity(budget.samples);
+/// Time per call of each operation, in ns: each is warmed up, then sampled
+/// `budget.samples` times in batches sized to last about `budget.sample`, and its fastest
+/// sample kept (on a shared machine other processes only ever add time). The operations
+/// take turns, one batch each a round, so that a busy spell of the machine falls on all of
+/// them alike, ours and the reference's, and no operation has every sample in one spell.
+fn time_in_turn<const N: usize>(budget: Budget, mut ops: [Operation; N]) -> [f64; N] {
+    let batches = ops.each_mut().map(|op| calibrate(budget, op));
+    let mut fastest = [f64::INFINITY; N];
     for _ in 0..budget.samples {
-        samples_f.push(sample(&mut f, batch_f));
-        samples_g.push(sample(&mut g, batch_g));
+        for ((op, &batch), fastest) in ops.iter_mut().zip(&batches).zip(&mut fastest) {
+            *fastest = fastest.min(op(batch));
+        }
     }
-    (best(&samples_f), best(&samples_g))
+    fastest
 }
 
 /// The texts of every item of the 1002 answer we keep, floats and integers apart.
@@ -737,77 +732,8 @@ fn summary(f: &Fixtures, allocs: &AllocationReport, quick: bool) {
             samples: 41,
         }
     };
-    let mut buf = [0u8; BUF_LEN];
-    let mut text = String::with_capacity(BUF_LEN);
-
-    let pairs = [
-        time_pair(
-            budget,
-            || our_decode_status(black_box(STATUS_1002.as_bytes())),
-            || serde_decode::<PatrolDevice<StatusItems>>(black_box(STATUS_1002)),
-        ),
-        time_pair(
-            budget,
-            || our_decode_nav(black_box(NAV_1003.as_bytes())),
-            || serde_decode::<PatrolDevice<NavItems>>(black_box(NAV_1003)),
-        ),
-        time_pair(
-            budget,
-            || our_encode_response(black_box(&f.status), &f.status_time, &mut buf),
-            || serde_encode(black_box(&f.serde_status), &mut text),
-        ),
-        time_pair(
-            budget,
-            || our_encode_request(black_box(&f.nav), &f.nav_time, &mut buf),
-            || serde_encode(black_box(&f.serde_nav), &mut text),
-        ),
-    ];
-    let ours = pairs.map(|(ours, _)| ours);
-    let serde = pairs.map(|(_, serde)| serde);
-    let (our_tok, xmlparser_tok) = time_pair(
-        budget,
-        || our_tokenize(black_box(STATUS_1002.as_bytes())),
-        || xmlparser_tokenize(black_box(STATUS_1002)),
-    );
-
-    // Where our 1002 decode and encode spend their time.
+    // Where our 1002 decode and encode spend their time: the inputs of the breakdown.
     let (float_texts, int_texts) = status_item_texts();
-    let items_walk = time_op(budget, || {
-        let mut n = 0usize;
-        read_document(black_box(STATUS_1002.as_bytes()), |_, items| {
-            for item in items {
-                n += item.map_or(0, |i| i.name.len());
-            }
-            Ok::<_, StructureError>(())
-        })
-        .expect("the document reads");
-        n
-    });
-    let general_decode = time_op(budget, || {
-        Response::decode_general(black_box(STATUS_1002.as_bytes())).map(|d| d.time.second)
-    });
-    let parse_ours = time_op(budget, || {
-        let mut sum = 0.0f32;
-        for t in &float_texts {
-            sum += number::parse_f32(black_box(t)).unwrap_or(0.0);
-        }
-        for t in &int_texts {
-            sum += number::parse_int::<i32>(black_box(t)).unwrap_or(0) as f32;
-        }
-        sum
-    });
-    let parse_core = time_op(budget, || {
-        let mut sum = 0.0f32;
-        for t in &float_texts {
-            let s = std::str::from_utf8(black_box(t)).unwrap_or("0");
-            sum += s.parse::<f32>().unwrap_or(0.0);
-        }
-        for t in &int_texts {
-            let s = std::str::from_utf8(black_box(t)).unwrap_or("0");
-            sum += s.parse::<i32>().unwrap_or(0) as f32;
-        }
-        sum
-    });
     let Response::Status(status) = &f.status else {
         unreachable!("the 1002 fixture is a status")
     };
@@ -825,36 +751,122 @@ fn summary(f: &Fixtures, allocs: &AllocationReport, quick: bool) {
         status.x0,
         status.y0,
     ];
-    let write_floats_ours = time_op(budget, || {
-        let mut n = 0;
-        let mut out = [0u8; number::F32_TEXT_MAX];
-        for v in black_box(&float_values) {
-            n += number::write_f32(*v, &mut out).unwrap_or(0);
-            black_box(&out);
-        }
-        n
-    });
-    let write_floats_core = time_op(budget, || {
-        use std::io::Write;
-        let mut n = 0;
-        let mut out = [0u8; 32];
-        for v in black_box(&float_values) {
-            let mut cursor = std::io::Cursor::new(&mut out[..]);
-            let _ = write!(cursor, "{v}");
-            n += cursor.position() as usize;
-            black_box(&out);
-        }
-        n
-    });
-    let skeleton = time_op(budget, || {
-        // The 1002 layout with every value already as text: markup cost alone.
-        let mut doc = DocumentWriter::begin(&mut buf, 1002, 1, black_box(&f.status_time))
-            .expect("the header fits");
-        for name in &SKELETON_NAMES {
-            doc.int_item(*name, 0).expect("the item fits");
-        }
-        doc.finish().expect("the document fits")
-    });
+    // Every operation writes to a buffer of its own: all of them are alive at once.
+    let mut status_buf = [0u8; BUF_LEN];
+    let mut nav_buf = [0u8; BUF_LEN];
+    let mut skeleton_buf = [0u8; BUF_LEN];
+    let mut status_text = String::with_capacity(BUF_LEN);
+    let mut nav_text = String::with_capacity(BUF_LEN);
+
+    let [
+        decode_status,
+        decode_status_serde,
+        decode_nav,
+        decode_nav_serde,
+        encode_status,
+        encode_status_serde,
+        encode_nav,
+        encode_nav_serde,
+        our_tok,
+        xmlparser_tok,
+        items_walk,
+        general_decode,
+        parse_ours,
+        parse_core,
+        write_floats_ours,
+        write_floats_core,
+        skeleton,
+    ] = time_in_turn(
+        budget,
+        [
+            operation(|| our_decode_status(black_box(STATUS_1002.as_bytes()))),
+            operation(|| serde_decode::<PatrolDevice<StatusItems>>(black_box(STATUS_1002))),
+            operation(|| our_decode_nav(black_box(NAV_1003.as_bytes()))),
+            operation(|| serde_decode::<PatrolDevice<NavItems>>(black_box(NAV_1003))),
+            operation(|| {
+                our_encode_response(black_box(&f.status), &f.status_time, &mut status_buf)
+            }),
+            operation(|| serde_encode(black_box(&f.serde_status), &mut status_text)),
+            operation(|| our_encode_request(black_box(&f.nav), &f.nav_time, &mut nav_buf)),
+            operation(|| serde_encode(black_box(&f.serde_nav), &mut nav_text)),
+            operation(|| our_tokenize(black_box(STATUS_1002.as_bytes()))),
+            operation(|| xmlparser_tokenize(black_box(STATUS_1002))),
+            operation(|| {
+                let mut n = 0usize;
+                read_document(black_box(STATUS_1002.as_bytes()), |_, items| {
+                    for item in items {
+                        n += item.map_or(0, |i| i.name.len());
+                    }
+                    Ok::<_, StructureError>(())
+                })
+                .expect("the document reads");
+                n
+            }),
+            operation(|| {
+                Response::decode_general(black_box(STATUS_1002.as_bytes())).map(|d| d.time.second)
+            }),
+            operation(|| {
+                let mut sum = 0.0f32;
+                for t in &float_texts {
+                    sum += number::parse_f32(black_box(t)).unwrap_or(0.0);
+                }
+                for t in &int_texts {
+                    sum += number::parse_int::<i32>(black_box(t)).unwrap_or(0) as f32;
+                }
+                sum
+            }),
+            operation(|| {
+                let mut sum = 0.0f32;
+                for t in &float_texts {
+                    let s = std::str::from_utf8(black_box(t)).unwrap_or("0");
+                    sum += s.parse::<f32>().unwrap_or(0.0);
+                }
+                for t in &int_texts {
+                    let s = std::str::from_utf8(black_box(t)).unwrap_or("0");
+                    sum += s.parse::<i32>().unwrap_or(0) as f32;
+                }
+                sum
+            }),
+            operation(|| {
+                let mut n = 0;
+                let mut out = [0u8; number::F32_TEXT_MAX];
+                for v in black_box(&float_values) {
+                    n += number::write_f32(*v, &mut out).unwrap_or(0);
+                    black_box(&out);
+                }
+                n
+            }),
+            operation(|| {
+                use std::io::Write;
+                let mut n = 0;
+                let mut out = [0u8; 32];
+                for v in black_box(&float_values) {
+                    let mut cursor = std::io::Cursor::new(&mut out[..]);
+                    let _ = write!(cursor, "{v}");
+                    n += cursor.position() as usize;
+                    black_box(&out);
+                }
+                n
+            }),
+            operation(|| {
+                // The 1002 layout with every value already as text: markup cost alone.
+                let mut doc =
+                    DocumentWriter::begin(&mut skeleton_buf, 1002, 1, black_box(&f.status_time))
+                        .expect("the header fits");
+                for name in &SKELETON_NAMES {
+                    doc.int_item(*name, 0).expect("the item fits");
+                }
+                doc.finish().expect("the document fits")
+            }),
+        ],
+    );
+    let ours = [decode_status, decode_nav, encode_status, encode_nav];
+    let serde = [
+        decode_status_serde,
+        decode_nav_serde,
+        encode_status_serde,
+        encode_nav_serde,
+    ];
 
     let names = [
         "decode 1002 status",
@@ -974,8 +986,8 @@ fn summary(f: &Fixtures, allocs: &AllocationReport, quick: bool) {
     );
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!(
-        "(ns/op = best of {} samples of ~{} ms after warm-up, ours and the reference sampled \
-         alternately; load average {}; timings are not asserted)",
+        "(ns/op = best of {} samples of ~{} ms after warm-up, every operation sampled in turn, \
+         round after round; load average {}; timings are not asserted)",
         budget.samples,
         budget.sample.as_millis(),
         load.split_whitespace()
