@@ -501,6 +501,62 @@ fn nineteen_digit_mantissa_edge() {
     }
 }
 
+/// `n` with a point before its last `k` digits (zeros in front as needed).
+fn with_point(n: u64, k: usize) -> String {
+    let digits = format!("{n:0>width$}", width = k + 1);
+    let (whole, fraction) = digits.split_at(digits.len() - k);
+    if k == 0 {
+        whole.to_string()
+    } else {
+        format!("{whole}.{fraction}")
+    }
+}
+
+#[test]
+fn word_sized_decimals_match_std() {
+    // A `compact` build reads a decimal whose digits fit a `u32`, with at most 13 after the
+    // point, by long division in machine words; the rest, and the integer parts too wide for
+    // a float's quotient, in big integers. Its edges: every power of two and its neighbours
+    // as digits (up to the widest word and past it), and for each point position the digits
+    // where the division's quotient gains a bit (the power of five it divides by, shifted by
+    // 26 and 27).
+    let mut digits = vec![1, 9, 10, 999_999_999, 1_000_000_000];
+    for p in 1..33 {
+        digits.extend([(1 << p) - 1, 1 << p, (1 << p) + 1]);
+    }
+    for k in 0..=14 {
+        for bits in [26, 27] {
+            let edge = 5u64.pow(k) << bits;
+            digits.extend([edge - 1, edge, edge + 1]);
+        }
+    }
+    for k in 0..=14 {
+        for &n in &digits {
+            let text = with_point(n, k);
+            check_parse(&text);
+            check_parse(&format!("-{text}"));
+        }
+    }
+    // Midpoints between floats that are short decimals: between integers from 2^24 up (odd
+    // ones, and twice odd from 2^25), and with one or two binary places below 2^24. Each
+    // rounds to the even neighbour.
+    for places in -8i32..=2 {
+        let binade = 23 - places;
+        for step in [0u32, 1, 2, 3, 1 << 22, (1 << 23) - 2, (1 << 23) - 1] {
+            let low = f32::from_bits((((binade + 127) as u32) << 23) + step);
+            let high = f32::from_bits(low.to_bits() + 1);
+            let mid = exact_decimal((f64::from(low) + f64::from(high)) / 2.0);
+            let even = if low.to_bits().is_multiple_of(2) {
+                low
+            } else {
+                high
+            };
+            assert_eq!(parse_f32(mid.as_bytes()), Ok(even), "{mid}");
+            check_parse(&mid);
+        }
+    }
+}
+
 #[test]
 fn parse_rejections() {
     assert_eq!(parse_f32(b""), Err(NumberError::Empty));

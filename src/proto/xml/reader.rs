@@ -673,7 +673,7 @@ fn text_len(bytes: &[u8]) -> Option<usize> {
 /// [`Tokenizer::simple_element`] would have found; and it must give for it what parsing it
 /// alone gives. `head`, where the caller has it, is `name`'s first 16 bytes with whatever
 /// follows them, so that a name shorter than that is compared in one masked piece (the item
-/// lines of [`Tokenizer::plain_run`]).
+/// lines of `Tokenizer::plain_run`, which a `compact` build leaves out).
 pub fn plain_item<T>(
     tag: &[u8],
     name: &[u8],

@@ -31,6 +31,15 @@ impl Big {
         big
     }
 
+    /// The value, if it fits a `u32`.
+    #[cfg(feature = "compact")]
+    pub(super) fn to_u32(self) -> Option<u32> {
+        match self.0 {
+            [low, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0] => Some(low),
+            _ => None,
+        }
+    }
+
     /// Whether the value is zero.
     pub(super) fn is_zero(&self) -> bool {
         self.0.iter().all(|&limb| limb == 0)

@@ -1,7 +1,8 @@
 //! The exact conversions between decimals and `f32`, in big-integer arithmetic ([`Big`]):
 //! every result is decided by comparing and dividing integers, so it is right by
-//! construction, whatever the input. A `compact` build converts every number here; the
-//! default build only what its approximations cannot settle (`fast`).
+//! construction, whatever the input. A `compact` build converts every number here, the
+//! usual text of a float in machine words where its digits fit one; the default build only
+//! what its approximations cannot settle (`fast`).
 
 use super::big::Big;
 use super::{Binary, float_bits};
@@ -16,6 +17,23 @@ use core::cmp::Ordering;
 /// enough digits that every midpoint between floats near the decimal is a multiple of
 /// `10^e` (see [`super::EXACT_DIGITS`]): then the dropped digits only ever break a tie.
 pub(super) fn to_f32(n: Big, e: i32, sticky: bool) -> u32 {
+    // The usual text of a float, in a `compact` build: digits that fit a word, at most 13
+    // of them after the point, every digit kept.
+    #[cfg(feature = "compact")]
+    let (quotient, b, fraction) = match (n.to_u32(), e, sticky) {
+        (Some(word), -13..=0, false) => divide_short(word, e.unsigned_abs()),
+        _ => None,
+    }
+    .unwrap_or_else(|| divide(n, e, sticky));
+    #[cfg(not(feature = "compact"))]
+    let (quotient, b, fraction) = divide(n, e, sticky);
+    round(quotient, b, fraction)
+}
+
+/// The quotient `q` of [`round`] for `n·10^e` (plus a tiny amount if `sticky`), the power
+/// of two `b` it counts, and whether the fraction below it is nonzero, in big integers:
+/// for any decimal within [`to_f32`]'s bounds.
+fn divide(n: Big, e: i32, sticky: bool) -> (u32, i32, bool) {
     // n·10^e = (n·5^e)·2^e, or (n / 5^-e)·2^e: the power of five goes where it multiplies.
     // `n·5^e < 10^58 < 2^193`; `5^-e <= 5^165 < 2^384`.
     let (mut num, mut den) = (n, Big::from_u64(1));
@@ -49,7 +67,37 @@ pub(super) fn to_f32(n: Big, e: i32, sticky: bool) -> u32 {
         num.mul_add(2, 0);
     }
     // The decimal is (quotient + fraction)·2^(e - shift).
-    round(quotient, e - shift, sticky || !num.is_zero())
+    (quotient, e - shift, sticky || !num.is_zero())
+}
+
+/// [`divide`] for `n·10^-k` with `0 < n < 2^32` and `k <= 13` (nine significant digits
+/// fit), in machine words instead of thirteen limbs. `None` when the value's integer part
+/// has more bits than the quotient, which `divide` takes.
+#[cfg(feature = "compact")]
+fn divide_short(n: u32, k: u32) -> Option<(u32, i32, bool)> {
+    // n·10^-k = (n / 5^k)·2^-k, with 5^k below 2^31: the remainder, below it, doubled and
+    // given a bit, still fits a word.
+    let den = (0..k).fold(1u32, |power, _| power * 5);
+    // As in `divide`, the quotient of `n·2^shift` by `den` lies in (2^25, 2^27).
+    let shift = n.leading_zeros() as i32 - den.leading_zeros() as i32 + 26;
+    if shift < 0 {
+        return None;
+    }
+    // Long division of `n·2^shift`, which has `den`'s bits and 26 more, one bit of it a
+    // step, from the top: the remainder, below `den`, takes the next bit of `n` (or a zero
+    // past its last), and gives the quotient a bit.
+    let mut bits = n << n.leading_zeros();
+    let (mut rest, mut quotient) = (0, 0);
+    for _ in 0..32 - den.leading_zeros() + 26 {
+        rest = 2 * rest + (bits >> 31);
+        bits <<= 1;
+        quotient <<= 1;
+        if rest >= den {
+            rest -= den;
+            quotient |= 1;
+        }
+    }
+    Some((quotient, -(k as i32) - shift, rest != 0))
 }
 
 /// The bits of the float nearest to `(q + f)·2^b`, where `2^25 < q < 2^27` and `0 <= f < 1`,

@@ -21,11 +21,12 @@
 //!   ends of its rounding interval, scaled to integers, until the decimal cut off there, or
 //!   one unit above it, falls inside the interval.
 //!
-//! That is all a `compact` build has. The default build first tries approximations that
-//! settle almost every number in a few multiplications, and are exact wherever they answer
-//! (module `fast`); the rest goes the exact way. The chosen digits (at most nine) are made
-//! at once, eight of them in one word's lanes, and the text, zeros included, is written
-//! with 8-byte stores.
+//! A `compact` build reads the usual text (digits that fit a word, at most 13 of them after
+//! the point) by the same long division in machine words, and everything else as above. The
+//! default build first tries approximations that settle almost every number in a few
+//! multiplications, and are exact wherever they answer (module `fast`); the rest goes the
+//! exact way. The chosen digits (at most nine) are made at once, eight of them in one word's
+//! lanes, and the text, zeros included, is written with 8-byte stores.
 //!
 //! Neither direction allocates, uses `unsafe`, or can panic; all buffers are fixed-size arrays.
 
