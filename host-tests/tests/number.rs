@@ -262,11 +262,7 @@ proptest! {
     #[test]
     fn midpoints_round_to_even(bits in 1u32..0x7f7f_ffff) {
         let low = f32::from_bits(bits);
-        let high = f32::from_bits(bits + 1);
-        // Adjacent floats have 24-bit significands one binade apart at most: exact in f64.
-        let mid = (f64::from(low) + f64::from(high)) / 2.0;
-        let exact = exact_decimal(mid);
-        let even = if bits % 2 == 0 { low } else { high };
+        let Midpoint { value: mid, text: exact, high, even } = midpoint_above(low);
         prop_assert_eq!(parse_f32(exact.as_bytes()), Ok(even), "{}", exact);
         check_parse(&exact);
         // A non-zero digit far past the midpoint's last breaks the tie upwards.
@@ -288,6 +284,34 @@ proptest! {
         prop_assert_eq!(parse_f32(above.as_bytes()), Ok(high), "{}", above);
         check_parse(&below);
         check_parse(&above);
+    }
+}
+
+/// The midpoint between a positive float and the next one up.
+struct Midpoint {
+    /// Its value, exact: adjacent floats have 24-bit significands one binade apart at most.
+    value: f64,
+    /// Its exact decimal text.
+    text: String,
+    /// The float above it.
+    high: f32,
+    /// The one of the two floats a reader rounds it to: the one with the even significand.
+    even: f32,
+}
+
+/// The [`Midpoint`] between the positive finite float `low` and the next float up.
+fn midpoint_above(low: f32) -> Midpoint {
+    let high = f32::from_bits(low.to_bits() + 1);
+    let value = (f64::from(low) + f64::from(high)) / 2.0;
+    Midpoint {
+        value,
+        text: exact_decimal(value),
+        high,
+        even: if low.to_bits().is_multiple_of(2) {
+            low
+        } else {
+            high
+        },
     }
 }
 
@@ -543,16 +567,9 @@ fn word_sized_decimals_match_std() {
     for places in -8i32..=2 {
         let binade = 23 - places;
         for step in [0u32, 1, 2, 3, 1 << 22, (1 << 23) - 2, (1 << 23) - 1] {
-            let low = f32::from_bits((((binade + 127) as u32) << 23) + step);
-            let high = f32::from_bits(low.to_bits() + 1);
-            let mid = exact_decimal((f64::from(low) + f64::from(high)) / 2.0);
-            let even = if low.to_bits().is_multiple_of(2) {
-                low
-            } else {
-                high
-            };
-            assert_eq!(parse_f32(mid.as_bytes()), Ok(even), "{mid}");
-            check_parse(&mid);
+            let mid = midpoint_above(f32::from_bits((((binade + 127) as u32) << 23) + step));
+            assert_eq!(parse_f32(mid.text.as_bytes()), Ok(mid.even), "{}", mid.text);
+            check_parse(&mid.text);
         }
     }
 }
