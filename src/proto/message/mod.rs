@@ -574,11 +574,11 @@ impl Response {
     }
 
     /// Reads the items of an answer of the envelope's Type.
-    // Out of line: inlined into the items handler that the document reader calls through a
-    // pointer, it made the 1002 decode a few percent slower (measured). The block is read
-    // by one call for every Type, with the Type's table, and only turned into its message
-    // per Type: one call and one error path instead of eleven.
-    #[inline(never)]
+    // The block is read by one call for every Type, with the Type's table, and only turned
+    // into its message per Type: one call and one error path instead of eleven. Left to the
+    // compiler, which inlines it into the items handler: once kept out of line because
+    // that made the 1002 decode slower, it now takes 20 bytes less of the panel's flash
+    // and 104 less both ways, and is no slower (measured).
     fn read_items(
         envelope: &Envelope,
         items: &mut Items<'_, '_>,

@@ -306,8 +306,7 @@ impl HeaderElement {
         Self::ORDER.get(index).copied()
     }
 
-    /// Its element name. Out of line in a `compact` build, where only errors ask.
-    #[cfg_attr(feature = "compact", inline(never))]
+    /// Its element name (only errors ask).
     fn name(self) -> &'static str {
         Self::NAMES.get(self as usize).copied().unwrap_or_default()
     }

@@ -280,8 +280,8 @@ impl Window {
     }
 
     /// The shortest integer in the window, nearest to `y`, ties to the larger one; returned as
-    /// digits, decimal exponent and number of digits. Inlined, like [`render`], so
-    /// that the float writer's usual path makes no call.
+    /// digits, decimal exponent and number of digits. Inlined, as the compiler inlines
+    /// [`render`] by itself, so that the float writer's usual path makes no call.
     #[inline(always)]
     pub(super) fn pick(&self) -> (u32, i32, usize) {
         // The largest power of ten with a multiple inside the window: the window holds a
@@ -417,7 +417,6 @@ fn decimal_len(n: u32) -> usize {
 /// stores, runs of zeros included; bytes stored past the text's end are left for the
 /// caller to ignore. No store reaches past `out`'s end: the text's last byte is at most at
 /// 47, and stores that would pass 48 are moved back over bytes that are zeros anyway.
-#[inline(always)]
 pub(super) fn render(
     negative: bool,
     digits: u32,
