@@ -112,7 +112,6 @@ const LINE_WINDOW: usize = ITEM_OPEN.len() + 5 + NUMBER_MAX + 2 * NAME_MAX;
 
 /// Stores `bytes` at `at` in `window`; the caller's offsets keep it inside, so the check
 /// folds away.
-#[inline(always)]
 fn store<const N: usize>(window: &mut [u8; LINE_WINDOW], at: usize, bytes: &[u8; N]) {
     if let Some(to) = window.get_mut(at..).and_then(|w| w.first_chunk_mut::<N>()) {
         *to = *bytes;
@@ -232,7 +231,6 @@ impl Tags for PaddedName<'_> {
 }
 
 /// Copies `name[from..from + N]` to `at + from` in `window`.
-#[inline(always)]
 fn piece<const N: usize>(window: &mut [u8; LINE_WINDOW], at: usize, name: &[u8], from: usize) {
     if let Some(from_name) = name.get(from..).and_then(|rest| rest.first_chunk::<N>()) {
         store(window, at + from, from_name);

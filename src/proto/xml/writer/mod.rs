@@ -313,10 +313,11 @@ impl<'a> DocumentWriter<'a> {
     }
 
     /// Appends `template`, each of its bytes that numbers one of `fields` (see
-    /// [`HEADER_TEMPLATE`]) replaced by that field. Out of line in a `compact` build, which
-    /// appends every line and its header this way.
+    /// [`HEADER_TEMPLATE`]) replaced by that field. A `compact` build appends every line and
+    /// its header this way, and the compiler keeps it out of line there on the
+    /// microcontroller by itself (forced out of line, it cost 719 instructions more a 1002
+    /// encode on the host, for no flash).
     #[cfg_attr(not(feature = "compact"), inline(always))]
-    #[cfg_attr(feature = "compact", inline(never))]
     fn fill(&mut self, template: &[u8], fields: &[&[u8]]) -> Result<(), WriteError> {
         let rest = self.buf.get_mut(self.len..).unwrap_or_default();
         self.len += fill(rest, template, fields)?;
