@@ -24,11 +24,11 @@
 //! The exact reader keeps a text's first nine significant digits in a word; a big integer
 //! takes them at a tenth. A `compact` build reads the usual text (digits that fit a word, at
 //! most 13 of them after the point) by the same long division in machine words, and
-//! everything else as above. The default build first tries
-//! approximations that settle almost every number in a few multiplications, and are exact
-//! wherever they answer (module `fast`); the rest goes the exact way. The chosen digits (at
-//! most nine) are made at once, eight of them in one word's lanes, and the text, zeros
-//! included, is written with 8-byte stores.
+//! everything else as above. The default build first tries approximations that settle
+//! almost every number in a few multiplications, and are exact wherever they answer (module
+//! `fast`); the rest goes the exact way. The chosen digits (at most nine) are made at once,
+//! eight of them in one word's lanes, and the text, zeros included, is written with 8-byte
+//! stores.
 //!
 //! Neither direction allocates, uses `unsafe`, or can panic; all buffers are fixed-size arrays.
 
