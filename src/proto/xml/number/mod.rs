@@ -320,7 +320,7 @@ impl Exact {
                 self.word = self.word * 10 + u32::from(digit);
             } else {
                 if self.count == WORD_DIGITS {
-                    self.digits = Big::from_u64(self.word.into());
+                    self.digits = self.value();
                 }
                 self.digits.mul_add(10, u32::from(digit));
             }
