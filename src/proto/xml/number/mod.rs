@@ -517,8 +517,9 @@ const ZERO_DIGITS: u64 = u64::from_le_bytes([b'0'; 8]);
 
 /// The ASCII digits of four numbers below 100, one in each 16-bit lane of `x`: the tens in
 /// the lane's low byte, the ones in its high byte. Dividing by ten is a multiplication, exact
-/// in every lane below 179.
+/// in every lane below 179; both digits then come from one multiplication and a
+/// subtraction, `(x << 8) - tens·(10·2^8 - 1)`.
 pub(crate) fn two_digit_lanes(x: u64) -> u64 {
     let tens = ((x * 103) >> 10) & 0x000f_000f_000f_000f;
-    tens | (x - tens * 10) << 8 | ZERO_DIGITS
+    ((x << 8) - tens * ((10 << 8) - 1)) | ZERO_DIGITS
 }
