@@ -27,7 +27,7 @@
 //! zeros included, is written with 8-byte stores.
 
 use super::{
-    Binary, Decimal, F32_TEXT_MAX, I32_TEXT_MAX, ZERO_DIGITS, float_bits, split_sign,
+    Binary, Decimal, F32_TEXT_MAX, I32_TEXT_MAX, ZERO_DIGITS, float_bits, split_lanes, split_sign,
     two_digit_lanes,
 };
 
@@ -495,16 +495,11 @@ fn fill_zeros(out: &mut [u8; F32_TEXT_MAX], from: usize, to: usize) {
 /// flash of the second copy.
 #[inline(always)]
 fn eight_ascii(v: u32) -> u64 {
-    // Two lanes of 32 bits: the top and bottom four digits. Each split puts the quotient in
-    // the low lane and the remainder in the high one as `(x << w) - q·((d << w) - 1)`, one
-    // multiplication and a subtraction after the quotient instead of four steps, on the
-    // chain the float writer waits on.
-    let top = u64::from(v / 10_000);
-    let x = (u64::from(v) << 32) - top * ((10_000 << 32) - 1);
+    // Two lanes of 32 bits: the top and bottom four digits.
+    let x = split_lanes(v.into(), (v / 10_000).into(), 10_000, 32);
     // x / 100 in each lane: exact for lanes below 43699.
     let high = ((x * 5243) >> 19) & 0x0000_007f_0000_007f;
-    let x = (x << 16) - high * ((100 << 16) - 1);
-    two_digit_lanes(x)
+    two_digit_lanes(split_lanes(x, high, 100, 16))
 }
 
 /// Stores the word's eight bytes, lowest first, at `at` in `out` (nothing if they do not

@@ -517,9 +517,18 @@ const ZERO_DIGITS: u64 = u64::from_le_bytes([b'0'; 8]);
 
 /// The ASCII digits of four numbers below 100, one in each 16-bit lane of `x`: the tens in
 /// the lane's low byte, the ones in its high byte. Dividing by ten is a multiplication, exact
-/// in every lane below 179; both digits then come from one multiplication and a
-/// subtraction, `(x << 8) - tens·(10·2^8 - 1)`.
+/// in every lane below 179.
 pub(crate) fn two_digit_lanes(x: u64) -> u64 {
     let tens = ((x * 103) >> 10) & 0x000f_000f_000f_000f;
-    ((x << 8) - tens * ((10 << 8) - 1)) | ZERO_DIGITS
+    split_lanes(x, tens, 10, 8) | ZERO_DIGITS
+}
+
+/// Each lane of `x` split by `divisor`, given the lanes' quotients `quotient`: the quotient
+/// stays in the lane's low part, the remainder goes `shift` bits up. Written as
+/// `(x << shift) - quotient·((divisor << shift) - 1)`, which is that exactly, so that the
+/// split is one multiplication and a subtraction after the quotient, not four steps: the
+/// float writer's digits wait on it. Each lane's quotient and remainder must fit its parts.
+#[inline(always)]
+pub(crate) fn split_lanes(x: u64, quotient: u64, divisor: u64, shift: u32) -> u64 {
+    (x << shift) - quotient * ((divisor << shift) - 1)
 }
