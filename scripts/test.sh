@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs every check and test of the project: formatting, lints for the firmware target and
 # the host, docs, the firmware builds, host tests (including the end-to-end tests in QEMU),
-# the benchmark's allocation check and figures, a short fuzz run, and the codec's size.
+# the benchmark's allocation check and figures, a short fuzz run, and the codec's size and
+# instruction counts on the microcontroller.
 # Installs what a fresh Debian machine with only the Rust toolchain lacks.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -23,6 +24,8 @@ cargo clippy --release --lib --features defmt,vendor-extensions -- -D warnings
 cargo clippy --release --lib --features serde,vendor-extensions -- -D warnings
 cargo clippy --release -p x30-codec-size --features robot-side -- -D warnings
 cargo clippy --release -p x30-codec-size --features robot-side,compact -- -D warnings
+cargo clippy --release -p x30-codec-count -- -D warnings
+cargo clippy --release -p x30-codec-count --features compact -- -D warnings
 
 step "clippy: host"
 (cd tools && cargo clippy --workspace --all-targets -- -D warnings)
@@ -63,6 +66,9 @@ scripts/fuzz.sh "${X30_FUZZ_SECONDS:-30}"
 step "codec size"
 scripts/codec-size.sh
 scripts/codec-size.sh --parts
+
+step "codec instructions on the microcontroller (in QEMU)"
+scripts/codec-count.sh
 
 echo
 echo "all checks passed in $SECONDS s"

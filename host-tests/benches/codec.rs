@@ -108,41 +108,7 @@ fn allocations_per_op<R>(runs: usize, mut f: impl FnMut() -> R) -> f64 {
 /// significant digits, and the undocumented items `AngleYaw`, `CurRuntime`, `SumRuntime`,
 /// `RTKState` and `MapUpdateState` between the documented ones (docs/protocol.md, "Extra
 /// items").
-const STATUS_1002: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
-<PatrolDevice>
-    <Type>1002</Type>
-    <Command>1</Command>
-    <Time>2024-11-19 14:32:07</Time>
-    <Items>
-        <MotionState>4</MotionState>
-        <PosX>12.3456783</PosX>
-        <PosY>-3.21098757</PosY>
-        <PosZ>0.0412368812</PosZ>
-        <AngleYaw>1.57023621</AngleYaw>
-        <Roll>-0.00023393621</Roll>
-        <Pitch>0.0123587409</Pitch>
-        <Yaw>1.57079637</Yaw>
-        <Speed>0.498761237</Speed>
-        <CurOdom>1.23456788</CurOdom>
-        <SumOdom>1234.56787</SumOdom>
-        <CurRuntime>5421.33398</CurRuntime>
-        <SumRuntime>1536792.25</SumRuntime>
-        <Res>0.0500000007</Res>
-        <X0>-25.6000004</X0>
-        <Y0>-18.3500004</Y0>
-        <H>734</H>
-        <Electricity>87</Electricity>
-        <Location>0</Location>
-        <RTKState>0</RTKState>
-        <GaitState>0</GaitState>
-        <MotorState>0</MotorState>
-        <ChargeState>0</ChargeState>
-        <ControlMode>1</ControlMode>
-        <MapUpdateState>0</MapUpdateState>
-        <OnDockState>0</OnDockState>
-    </Items>
-</PatrolDevice>
-"#;
+const STATUS_1002: &str = include_str!("../data/status-1002.xml");
 
 /// The names of the 1002 answer's items, for the "layout with integer items only" row.
 static SKELETON_NAMES: [ItemName; 21] = [
@@ -170,29 +136,7 @@ static SKELETON_NAMES: [ItemName; 21] = [
 ];
 
 /// A 1003 request with all 14 items: a task point on map 2, planned path, walk gait.
-const NAV_1003: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
-<PatrolDevice>
-    <Type>1003</Type>
-    <Command>1</Command>
-    <Time>2024-11-19 14:32:08</Time>
-    <Items>
-        <Value>17</Value>
-        <MapID>2</MapID>
-        <PosX>15.8123455</PosX>
-        <PosY>-7.40219831</PosY>
-        <PosZ>0.0500000007</PosZ>
-        <AngleYaw>-1.57079637</AngleYaw>
-        <PointInfo>1</PointInfo>
-        <Gait>0</Gait>
-        <Speed>0</Speed>
-        <Manner>0</Manner>
-        <ObsMode>0</ObsMode>
-        <NavMode>1</NavMode>
-        <Terrain>0</Terrain>
-        <Posture>0</Posture>
-    </Items>
-</PatrolDevice>
-"#;
+const NAV_1003: &str = include_str!("../data/nav-1003.xml");
 
 // ---------------------------------------------------------------------------------------
 // The reference: quick-xml + serde
