@@ -148,6 +148,20 @@ fn strided_bit_patterns_match_std() {
     }
 }
 
+#[test]
+fn whole_numbers_match_std() {
+    // A `compact` build writes a whole number below 2^24 as an integer (a stop's -1). Every
+    // one below 2^16, then a stride up to 2^24, then the whole floats from there to 2^31,
+    // which must not take that way: above 2^24 a shorter decimal may read back as the same
+    // float (67108872 is written 67108870).
+    let below = (1..1 << 16).chain((1 << 16..=1 << 24).step_by(97));
+    let above = (1u32 << 24..1 << 31).step_by(4099).map(|i| i & !7);
+    for i in below.chain(above).chain([(1 << 24) - 1, 1 << 24, (1 << 24) + 2, 67_108_872]) {
+        check_float(i as f32);
+        check_float(-(i as f32));
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(50_000))]
 

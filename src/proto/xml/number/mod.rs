@@ -465,9 +465,26 @@ pub fn write_f32(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> Result<usize, Numb
 ///
 /// In the default build, the usual float's digits are chosen by [`fast::Window`] and
 /// written here without a call, which would make the compiler save and restore more
-/// registers. Zero and any other float go to [`write_exact`]. The compiler keeps this
-/// function out of line by itself.
+/// registers; in a `compact` build, a whole number below 2^24 is written by [`write_i32`].
+/// Zero and any other float go to [`write_exact`]. The compiler keeps this function out of
+/// line by itself.
 pub(crate) fn write_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
+    // A `compact` build writes a whole number below 2^24 as the integer it is: that halves
+    // the encoding of a stop, whose `Value` is -1 (2495 Cortex-M instructions instead of
+    // 5168, `scripts/codec-count.sh`). Floats that far up lie at most one apart, so no
+    // shorter decimal reads back as the same float (above 2^24 one may: 67108872 is written
+    // 67108870). Zero keeps its sign the exact way.
+    #[cfg(feature = "compact")]
+    {
+        let whole = value as i32;
+        if whole != 0
+            && whole as f32 == value
+            && whole.unsigned_abs() < 1 << 24
+            && let Some(out) = out.first_chunk_mut()
+        {
+            return write_i32(whole, out);
+        }
+    }
     #[cfg(not(feature = "compact"))]
     if let Some(window) = fast::Window::new(value.to_bits() & !(1 << 31)) {
         let (digits, exponent, len) = window.pick();
