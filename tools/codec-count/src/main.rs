@@ -32,9 +32,11 @@ const NAV_1003: &[u8] = include_bytes!("../../../host-tests/data/nav-1003.xml");
 /// Runs of each operation between the two timer readings.
 const RUNS: u32 = 1000;
 
-/// CMSDK APB timer 0: control, current value (counting down), reload.
+/// CMSDK APB timer 0's control register (bit 0 starts it).
 const TIMER0_CTRL: *mut u32 = 0x4000_0000 as *mut u32;
+/// Timer 0's current value, counting down.
 const TIMER0_VALUE: *const u32 = 0x4000_0004 as *const u32;
+/// Timer 0's reload value; writing it also sets the current value.
 const TIMER0_RELOAD: *mut u32 = 0x4000_0008 as *mut u32;
 
 /// Instructions a tick of the 25 MHz timer stands for, at one nanosecond an instruction.
