@@ -156,7 +156,10 @@ fn whole_numbers_match_std() {
     // float (67108872 is written 67108870).
     let below = (1..1 << 16).chain((1 << 16..=1 << 24).step_by(97));
     let above = (1u32 << 24..1 << 31).step_by(4099).map(|i| i & !7);
-    for i in below.chain(above).chain([(1 << 24) - 1, 1 << 24, (1 << 24) + 2, 67_108_872]) {
+    for i in below
+        .chain(above)
+        .chain([(1 << 24) - 1, 1 << 24, (1 << 24) + 2, 67_108_872])
+    {
         check_float(i as f32);
         check_float(-(i as f32));
     }

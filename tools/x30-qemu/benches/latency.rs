@@ -156,7 +156,6 @@ fn main() {
 /// [`MEASURES`], `None` for a press that never showed, and what the page's clients got.
 fn measure(turn: &Turn, robot: &Robot, presses: usize) -> ([Vec<Option<f64>>; 4], Option<Load>) {
     let sim = simulator();
-    far_from_dock(&sim);
     // Each round takes about 5 s, and up to 5 s more per press that never shows.
     let session = Duration::from_secs(60 + 25 * presses as u64);
     let page = SocketAddr::from((Ipv4Addr::LOCALHOST, free_port()));
@@ -171,6 +170,9 @@ fn measure(turn: &Turn, robot: &Robot, presses: usize) -> ([Vec<Option<f64>>; 4]
         (robot.page_clients > 0).then(|| Clients::start(page, robot.page_clients, session));
     let mut columns: [Vec<Option<f64>>; 4] = Default::default();
     for _ in 0..presses {
+        // Every round's task starts far from the charging point: the tasks before walked
+        // towards it, and one that arrives leaves no task for `stop` to cancel.
+        far_from_dock(&sim);
         (robot.misbehave)(&sim);
         columns[0].push(press(&sim, &mut panel, "+forward", |e| is_motion(e, 1)));
         sleep(Duration::from_millis(600));

@@ -7,6 +7,10 @@ use std::process::{Command, Stdio};
 /// The firmware's board feature for QEMU's mps2-an386 machine.
 pub const BOARD_FEATURE: &str = "board-qemu-mps2-an386";
 
+/// Names more features for the firmware's build, comma-separated: `compact` builds the codec
+/// without its fast paths, as a microcontroller short of flash would.
+pub const FEATURES_VARIABLE: &str = "X30_FIRMWARE_FEATURES";
+
 /// The firmware's binary target.
 const BIN: &str = "x30-panel";
 
@@ -31,11 +35,12 @@ pub fn repository_root() -> PathBuf {
 /// rather than guessed, so a `CARGO_TARGET_DIR` in the environment is honoured.
 pub fn build(root: &Path) -> Result<PathBuf, String> {
     let manifest = root.join("Cargo.toml");
+    let features = features();
     let mut command = Command::new("cargo");
     command
         .current_dir(root)
         .args(["build", "--release", "--features"])
-        .arg(BOARD_FEATURE)
+        .arg(&features)
         .args(["--bin", BIN, "--message-format=json-render-diagnostics"])
         .env(
             "X30_DOCK",
@@ -64,11 +69,25 @@ pub fn build(root: &Path) -> Result<PathBuf, String> {
     if !status.success() {
         return Err(format!(
             "building the firmware failed ({status}): cargo build --release \
-             --features {BOARD_FEATURE} --manifest-path {}",
+             --features {features} --manifest-path {}",
             manifest.display()
         ));
     }
     elf.ok_or_else(|| "cargo built the firmware but did not say where the ELF is".into())
+}
+
+/// The features the firmware is built with: the board's, and those [`FEATURES_VARIABLE`]
+/// adds.
+pub fn features() -> String {
+    with_extra(std::env::var(FEATURES_VARIABLE).ok().as_deref())
+}
+
+/// The board's feature followed by `extra`, if it names any.
+fn with_extra(extra: Option<&str>) -> String {
+    match extra.map(str::trim) {
+        Some(extra) if !extra.is_empty() => format!("{BOARD_FEATURE},{extra}"),
+        _ => BOARD_FEATURE.to_string(),
+    }
 }
 
 /// The firmware executable named by one of Cargo's JSON messages, if it names it.
@@ -90,6 +109,16 @@ mod tests {
         let manifest = std::fs::read_to_string(root.join("Cargo.toml")).unwrap();
         assert!(manifest.contains("name = \"x30-panel\""));
         assert!(root.join(".cargo/config.toml").is_file());
+    }
+
+    #[test]
+    fn extra_features_follow_the_boards() {
+        assert_eq!(with_extra(None), BOARD_FEATURE);
+        assert_eq!(with_extra(Some(" ")), BOARD_FEATURE);
+        assert_eq!(
+            with_extra(Some("compact")),
+            format!("{BOARD_FEATURE},compact")
+        );
     }
 
     #[test]

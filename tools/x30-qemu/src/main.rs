@@ -132,8 +132,8 @@ fn run(cli: &Cli) -> Result<u8, String> {
         Some(elf) => return Err(format!("--firmware {}: no such file", elf.display())),
         None => {
             eprintln!(
-                "x30-qemu: building the firmware (feature {})",
-                firmware::BOARD_FEATURE
+                "x30-qemu: building the firmware (features {})",
+                firmware::features()
             );
             firmware::build(&firmware::repository_root())?
         }
