@@ -65,7 +65,8 @@ struct Cli {
         required_unless_present = "build_only"
     )]
     robot: Option<String>,
-    /// Boot this firmware ELF instead of building the QEMU board's firmware.
+    /// Boot this firmware ELF instead of building the QEMU board's firmware (built with the
+    /// features X30_FIRMWARE_FEATURES names too, comma-separated, such as `compact`).
     #[arg(long, value_name = "ELF")]
     firmware: Option<PathBuf>,
     /// Only build the firmware and print the ELF's path.
