@@ -25,7 +25,7 @@ cargo clippy --release --lib --features serde,vendor-extensions -- -D warnings
 cargo clippy --release -p x30-codec-size --features robot-side -- -D warnings
 cargo clippy --release -p x30-codec-size --features robot-side,compact -- -D warnings
 cargo clippy --release -p x30-codec-count -- -D warnings
-cargo clippy --release -p x30-codec-count --features compact -- -D warnings
+cargo clippy --release -p x30-codec-count --features robot-side,compact -- -D warnings
 
 step "clippy: host"
 (cd tools && cargo clippy --workspace --all-targets -- -D warnings)

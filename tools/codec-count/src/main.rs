@@ -1,6 +1,9 @@
 //! Counts the Cortex-M instructions the protocol codec takes for what the panel does most:
 //! read a status answer, and write a navigation task, a zero velocity and a soft emergency
-//! stop. Runs in QEMU's mps2-an386 machine (a Cortex-M4, the firmware's instruction set)
+//! stop. Built with feature `robot-side`, it counts the benchmark's other two operations
+//! instead, the robot's side: read the navigation task, write the status answer. Each build
+//! links only what it counts, as the firmware links only the panel's side, because a
+//! function with more callers may be compiled differently. Runs in QEMU's mps2-an386 machine (a Cortex-M4, the firmware's instruction set)
 //! under `-icount shift=0`, where the virtual clock advances one nanosecond an instruction,
 //! so the 25 MHz CMSDK timer 0 counts one tick every 40 instructions. Each operation runs
 //! [`RUNS`] times between two readings; the cost of an empty run is taken off. The result
@@ -21,7 +24,7 @@ use core::ptr;
 use cortex_m as _;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
-use x30_panel::proto::message::{MotionCommand, Request, Response};
+use x30_panel::proto::message::{Request, Response};
 use x30_panel::proto::time::Timestamp;
 
 /// A 1002 answer as a real robot sends it (the benchmark's).
@@ -77,17 +80,8 @@ fn main() -> ! {
     } else {
         "default"
     };
-    let time = Timestamp::ZERO;
-    let mut out = [0; 2048];
-    let nav = match Request::decode(NAV_1003) {
-        Ok(nav) => nav.message,
-        Err(_) => fail("the 1003 request does not decode"),
-    };
-    if Response::decode(STATUS_1002).is_err() {
-        fail("the 1002 answer does not decode");
-    }
-    let empty = instructions(|| black_box(()));
     let report = |name: &str, count: u64| hprintln!("{build:8} {name:24} {count:6}");
+    let empty = instructions(|| black_box(()));
     let calibration = instructions(|| {
         // SAFETY: instructions that do nothing.
         unsafe { core::arch::asm!(".rept 100", "nop", ".endr", options(nomem, nostack)) }
@@ -97,15 +91,31 @@ fn main() -> ! {
     if calibration != 100 {
         fail("QEMU does not count one nanosecond an instruction: run it with -icount shift=0");
     }
+    count(empty, report);
+    debug::exit(debug::EXIT_SUCCESS);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// Counts and reports the panel's operations, each less `empty`.
+#[cfg(not(feature = "robot-side"))]
+fn count(empty: u64, report: impl Fn(&str, u64)) {
+    let Ok(nav) = Request::decode(NAV_1003) else {
+        fail("the 1003 request does not decode")
+    };
+    let time = Timestamp::ZERO;
+    let mut out = [0; 2048];
     let mut encode = |request: Request| {
         instructions(|| {
             black_box(black_box(&request).encode(&time, &mut out).ok());
         })
         .saturating_sub(empty)
     };
-    let nav_count = encode(nav);
-    let stop_count = encode(Request::Motion(MotionCommand::ZeroVelocity));
-    let estop_count = encode(Request::Motion(MotionCommand::SoftEmergencyStop));
+    let nav_count = encode(nav.message);
+    use x30_panel::proto::message::MotionCommand::{SoftEmergencyStop, ZeroVelocity};
+    let stop_count = encode(Request::Motion(ZeroVelocity));
+    let estop_count = encode(Request::Motion(SoftEmergencyStop));
     let decode_count = instructions(|| {
         black_box(Response::decode(black_box(STATUS_1002)).ok());
     })
@@ -114,10 +124,26 @@ fn main() -> ! {
     report("encode 1003 request", nav_count);
     report("encode zero velocity", stop_count);
     report("encode soft e-stop", estop_count);
-    debug::exit(debug::EXIT_SUCCESS);
-    loop {
-        cortex_m::asm::wfi();
-    }
+}
+
+/// Counts and reports the robot's side of the benchmark's operations, each less `empty`.
+#[cfg(feature = "robot-side")]
+fn count(empty: u64, report: impl Fn(&str, u64)) {
+    let Ok(status) = Response::decode(STATUS_1002) else {
+        fail("the 1002 answer does not decode")
+    };
+    let time = Timestamp::ZERO;
+    let mut out = [0; 2048];
+    let decode_count = instructions(|| {
+        black_box(Request::decode(black_box(NAV_1003)).ok());
+    })
+    .saturating_sub(empty);
+    let encode_count = instructions(|| {
+        black_box(black_box(&status.message).encode(&time, &mut out).ok());
+    })
+    .saturating_sub(empty);
+    report("robot: decode 1003", decode_count);
+    report("robot: encode 1002", encode_count);
 }
 
 /// Reports `why` and ends QEMU with a failure status.
