@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Cortex-M instructions the protocol codec takes for the panel's usual work (decoding a 1002
 # answer; encoding a 1003 request, a zero velocity and a soft e-stop) and for the robot's
-# side of the benchmark (decoding the 1003 request, encoding the 1002 answer), in the firmware's
-# release profile, as the boards build it and in the library's `compact` build. Each build
-# runs in QEMU's mps2-an386 machine (a Cortex-M4) under `-icount shift=0`, which counts
-# instructions, not the cycles a real chip takes (tools/codec-count says how).
+# side of the benchmark (decoding the 1003 request, encoding the 1002 answer), in the
+# firmware's release profile, as the boards build it and in the library's `compact` build.
+# Each build runs in QEMU's mps2-an386 machine (a Cortex-M4) under `-icount shift=0`, which
+# counts instructions, not the cycles a real chip takes (tools/codec-count says how).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/setup.sh

@@ -3,10 +3,12 @@
 //! stop. Built with feature `robot-side`, it counts the benchmark's other two operations
 //! instead, the robot's side: read the navigation task, write the status answer. Each build
 //! links only what it counts, as the firmware links only the panel's side, because a
-//! function with more callers may be compiled differently. Runs in QEMU's mps2-an386 machine (a Cortex-M4, the firmware's instruction set)
-//! under `-icount shift=0`, where the virtual clock advances one nanosecond an instruction,
-//! so the 25 MHz CMSDK timer 0 counts one tick every 40 instructions. Each operation runs
-//! [`RUNS`] times between two readings; the cost of an empty run is taken off. The result
+//! function with more callers may be compiled differently.
+//!
+//! Runs in QEMU's mps2-an386 machine (a Cortex-M4, the firmware's instruction set) under
+//! `-icount shift=0`, where the virtual clock advances one nanosecond an instruction, so the
+//! 25 MHz CMSDK timer 0 counts one tick every 40 instructions. Each operation runs [`RUNS`]
+//! times between two readings; the cost of an empty run is taken off. The result
 //! goes to the host's standard output through semihosting, one line an operation, after a
 //! calibration line: a hundred `nop`s, which must count 100, or the program fails.
 //!
@@ -24,6 +26,8 @@ use core::ptr;
 use cortex_m as _;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
+#[cfg(not(feature = "robot-side"))]
+use x30_panel::proto::message::MotionCommand;
 use x30_panel::proto::message::{Request, Response};
 use x30_panel::proto::time::Timestamp;
 
@@ -72,6 +76,22 @@ fn instructions(mut op: impl FnMut()) -> u64 {
     u64::from(start.wrapping_sub(ticks())) * INSTRUCTIONS_PER_TICK / u64::from(RUNS)
 }
 
+/// What a run of an empty operation takes (the loop's own instructions), so that it can be
+/// taken off each count.
+struct Baseline(u64);
+
+impl Baseline {
+    /// Measures the empty run.
+    fn measure() -> Self {
+        Self(instructions(|| black_box(())))
+    }
+
+    /// Instructions a run of `op` takes, the loop's own taken off.
+    fn count(&self, op: impl FnMut()) -> u64 {
+        instructions(op).saturating_sub(self.0)
+    }
+}
+
 #[entry]
 fn main() -> ! {
     start_timer();
@@ -81,67 +101,61 @@ fn main() -> ! {
         "default"
     };
     let report = |name: &str, count: u64| hprintln!("{build:8} {name:24} {count:6}");
-    let empty = instructions(|| black_box(()));
-    let calibration = instructions(|| {
+    let baseline = Baseline::measure();
+    let calibration = baseline.count(|| {
         // SAFETY: instructions that do nothing.
         unsafe { core::arch::asm!(".rept 100", "nop", ".endr", options(nomem, nostack)) }
-    })
-    .saturating_sub(empty);
+    });
     report("calibration: 100 nop", calibration);
     if calibration != 100 {
         fail("QEMU does not count one nanosecond an instruction: run it with -icount shift=0");
     }
-    count(empty, report);
+    count(&baseline, report);
     debug::exit(debug::EXIT_SUCCESS);
     loop {
         cortex_m::asm::wfi();
     }
 }
 
-/// Counts and reports the panel's operations, each less `empty`.
+/// Counts and reports the panel's operations.
 #[cfg(not(feature = "robot-side"))]
-fn count(empty: u64, report: impl Fn(&str, u64)) {
+fn count(baseline: &Baseline, report: impl Fn(&str, u64)) {
     let Ok(nav) = Request::decode(NAV_1003) else {
         fail("the 1003 request does not decode")
     };
     let time = Timestamp::ZERO;
     let mut out = [0; 2048];
     let mut encode = |request: Request| {
-        instructions(|| {
+        baseline.count(|| {
             black_box(black_box(&request).encode(&time, &mut out).ok());
         })
-        .saturating_sub(empty)
     };
     let nav_count = encode(nav.message);
-    use x30_panel::proto::message::MotionCommand::{SoftEmergencyStop, ZeroVelocity};
-    let stop_count = encode(Request::Motion(ZeroVelocity));
-    let estop_count = encode(Request::Motion(SoftEmergencyStop));
-    let decode_count = instructions(|| {
+    let stop_count = encode(Request::Motion(MotionCommand::ZeroVelocity));
+    let estop_count = encode(Request::Motion(MotionCommand::SoftEmergencyStop));
+    let decode_count = baseline.count(|| {
         black_box(Response::decode(black_box(STATUS_1002)).ok());
-    })
-    .saturating_sub(empty);
+    });
     report("decode 1002 answer", decode_count);
     report("encode 1003 request", nav_count);
     report("encode zero velocity", stop_count);
     report("encode soft e-stop", estop_count);
 }
 
-/// Counts and reports the robot's side of the benchmark's operations, each less `empty`.
+/// Counts and reports the robot's side of the benchmark's operations.
 #[cfg(feature = "robot-side")]
-fn count(empty: u64, report: impl Fn(&str, u64)) {
+fn count(baseline: &Baseline, report: impl Fn(&str, u64)) {
     let Ok(status) = Response::decode(STATUS_1002) else {
         fail("the 1002 answer does not decode")
     };
     let time = Timestamp::ZERO;
     let mut out = [0; 2048];
-    let decode_count = instructions(|| {
+    let decode_count = baseline.count(|| {
         black_box(Request::decode(black_box(NAV_1003)).ok());
-    })
-    .saturating_sub(empty);
-    let encode_count = instructions(|| {
+    });
+    let encode_count = baseline.count(|| {
         black_box(black_box(&status.message).encode(&time, &mut out).ok());
-    })
-    .saturating_sub(empty);
+    });
     report("robot: decode 1003", decode_count);
     report("robot: encode 1002", encode_count);
 }
