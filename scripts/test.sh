@@ -54,6 +54,12 @@ step "host tests of the codec, compact build (its fast paths left out)"
 step "host tests of the tools (with the end-to-end tests: the QEMU firmware against x30-sim)"
 (cd tools && cargo test --workspace --all-targets --exclude x30-host-tests --exclude x30-fuzz)
 
+step "the README's cargo run lines start (--help)"
+# A package with a second binary needs `default-run` for these lines to work as written.
+for package in $(grep -o 'cargo run -p [a-z0-9-]*' README.md | awk '{ print $4 }' | sort -u); do
+    (cd tools && cargo run -q -p "$package" -- --help > /dev/null)
+done
+
 step "end-to-end tests again, with the codec's compact build in the firmware"
 # The build that meets the codec's flash targets, on the target against x30-sim. It replaces
 # the firmware ELF of the steps above, which none of the steps below use.
