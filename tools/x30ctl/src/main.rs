@@ -165,6 +165,32 @@ fn motion(ctx: &Ctx, command: MotionCommand, what: &str) -> Result<(), Error> {
     simple(ctx, &Request::Motion(command), what)
 }
 
+/// A number of seconds given on the command line (`option` of command `what`) as a duration;
+/// zero, negative, not a number, under a nanosecond or past what a `Duration` holds is a
+/// usage error that says which.
+pub fn seconds_arg(what: &str, option: &str, seconds: f64) -> Result<Duration, Error> {
+    let problem = match Duration::try_from_secs_f64(seconds) {
+        _ if seconds.is_nan() || seconds <= 0.0 => "is not a positive number of seconds",
+        Ok(duration) if duration.is_zero() => "is under a nanosecond",
+        Ok(duration) => return Ok(duration),
+        Err(_) => "is too long",
+    };
+    Err(Error::Usage(format!(
+        "{what}: {option} {} {problem}; nothing sent",
+        shown_seconds(seconds)
+    )))
+}
+
+/// A number of seconds as a usage error shows it: huge ones in exponent form (1e300, not its
+/// 301 digits).
+pub fn shown_seconds(seconds: f64) -> String {
+    if seconds.abs() >= 1e15 {
+        format!("{seconds:e}")
+    } else {
+        seconds.to_string()
+    }
+}
+
 /// Checks a request against the document's rules before anything is sent.
 pub fn validate(request: &Request, what: &str) -> Result<(), Error> {
     request.validate().map_err(|e| {

@@ -61,15 +61,7 @@ pub fn run(ctx: &Ctx, args: &MoveArgs, interrupts: &Interrupts) -> Result<(), Er
         )));
     }
     crate::validate(&request, &format!("move {}", command.code().description()))?;
-    let duration = Duration::try_from_secs_f64(args.duration)
-        .ok()
-        .filter(|d| !d.is_zero())
-        .ok_or_else(|| {
-            Error::Usage(format!(
-                "move: --duration {} is not a positive number of seconds; nothing sent",
-                args.duration
-            ))
-        })?;
+    let duration = crate::seconds_arg("move", "--duration", args.duration)?;
 
     // Only an absurd duration (centuries) overflows the clock; refuse it rather than panic.
     if duration
@@ -79,7 +71,7 @@ pub fn run(ctx: &Ctx, args: &MoveArgs, interrupts: &Interrupts) -> Result<(), Er
     {
         return Err(Error::Usage(format!(
             "move: --duration {} is too long; nothing sent",
-            args.duration
+            crate::shown_seconds(args.duration)
         )));
     }
 

@@ -200,16 +200,7 @@ pub fn run(ctx: &Ctx, args: &NavArgs, interrupts: &Interrupts) -> Result<(), Err
     crate::validate(&request, "nav")?;
     let nav_timeout = match args.nav_timeout {
         None => None,
-        Some(seconds) => Some(
-            Duration::try_from_secs_f64(seconds)
-                .ok()
-                .filter(|d| !d.is_zero())
-                .ok_or_else(|| {
-                    Error::Usage(format!(
-                        "nav: --nav-timeout {seconds} is not a positive number of seconds; nothing sent"
-                    ))
-                })?,
-        ),
+        Some(seconds) => Some(crate::seconds_arg("nav", "--nav-timeout", seconds)?),
     };
 
     let mut conn = ctx.connect()?;

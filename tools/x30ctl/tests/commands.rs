@@ -537,7 +537,42 @@ fn move_speed_is_validated() {
         &["move", "turn-right", "--speed", "-0.5", "--duration", "1"],
     )
     .expect_code(2);
-    x30ctl(&sim, &["move", "forward", "--duration", "0"]).expect_code(2);
+    assert!(sim.requests().is_empty());
+}
+
+#[test]
+fn durations_out_of_range_are_refused_saying_why() {
+    let sim = sim(1.0);
+    let cases = [
+        ("0", "--duration 0 is not a positive number of seconds"),
+        ("-1", "--duration -1 is not a positive number of seconds"),
+        ("NaN", "--duration NaN is not a positive number of seconds"),
+        ("1e-12", "--duration 0.000000000001 is under a nanosecond"),
+        ("1e300", "--duration 1e300 is too long"),
+        // A Duration holds it, but not the clock's moment it ends.
+        ("5e18", "--duration 5e18 is too long"),
+    ];
+    for (seconds, expected) in cases {
+        x30ctl(&sim, &["move", "forward", "--duration", seconds])
+            .expect_code(2)
+            .stderr_has(&format!("move: {expected}; nothing sent"));
+    }
+    let nav = [
+        "nav",
+        "--map-id",
+        "1",
+        "--x",
+        "1",
+        "--y",
+        "1",
+        "--nav-timeout",
+    ];
+    x30ctl(&sim, &[&nav[..], &["1e20"]].concat())
+        .expect_code(2)
+        .stderr_has("nav: --nav-timeout 1e20 is too long; nothing sent");
+    x30ctl(&sim, &[&nav[..], &["-5"]].concat())
+        .expect_code(2)
+        .stderr_has("nav: --nav-timeout -5 is not a positive number of seconds");
     assert!(sim.requests().is_empty());
 }
 
