@@ -17,7 +17,7 @@ use x30_panel::app::{Shared, Snapshot};
 use x30_panel::config::{Cidr, Config};
 use x30_panel::console::commands::{Action, execute};
 use x30_panel::console::line::{Input, LINE_MAX, LineEditor};
-use x30_panel::console::{self, Answer, Reboot};
+use x30_panel::console::{self, Answer, PROMPT, Reboot};
 use x30_panel::panel::indicators::{Faults, LinkState};
 use x30_panel::panel::monitor::Stamped;
 use x30_panel::panel::{Busy, Button, ButtonEvent};
@@ -571,6 +571,30 @@ async fn with_console<R>(
         }
     })
     .await
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn after_a_web_save_the_prompt_shows_the_line_being_typed_and_no_finished_one() {
+    for (typed, shown_again) in [("show\r", ""), ("show\rsho", "sho")] {
+        let flash = flash();
+        let shared = Shared::new();
+        let (screen, result) = with_console(&flash, &shared, typed, async |desk| {
+            desk.save_with(|edited| {
+                edited.set(Key::SpeedForward, "0.3").unwrap();
+                Ok::<_, Refused>(())
+            })
+            .await
+        })
+        .await;
+        result.expect("saved");
+        let (_, after_save) = screen
+            .split_once("web page: saved speed-forward in ")
+            .expect("the save is told");
+        assert!(
+            after_save.ends_with(&format!("\n{PROMPT}{shown_again}")),
+            "typed {typed:?}: {screen:?}"
+        );
+    }
 }
 
 #[tokio::test(flavor = "current_thread")]

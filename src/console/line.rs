@@ -68,6 +68,12 @@ impl LineEditor {
         &self.line
     }
 
+    /// The line being typed, to show again after the console printed something else: empty
+    /// right after [`Input::Line`], whose line was already run.
+    pub fn unfinished(&self) -> &str {
+        if self.complete { "" } else { &self.line }
+    }
+
     /// Takes one typed byte.
     pub fn push(&mut self, byte: u8) -> Input {
         if core::mem::take(&mut self.complete) {

@@ -88,7 +88,7 @@ pub async fn run<R: Read, W: Write, F: NorFlash>(
             Either::Second(()) => {
                 web_save(store, settings, desk, shared, &mut answer).await;
                 let _ = answer.push_str(PROMPT);
-                let _ = answer.push_str(editor.line());
+                let _ = answer.push_str(editor.unfinished());
                 send(&mut tx, &answer).await;
                 continue;
             }
