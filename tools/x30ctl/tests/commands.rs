@@ -224,43 +224,19 @@ fn nav_maps_every_named_value() {
     }
 }
 
+/// A valid `nav` to point (1, 1) of map 1, which the tests add options to.
+const NAV: [&str; 7] = ["nav", "--map-id", "1", "--x", "1", "--y", "1"];
+
 #[test]
 fn nav_validation_refuses_before_sending() {
     let sim = sim(1.0);
-    x30ctl(
-        &sim,
-        &[
-            "nav",
-            "--map-id",
-            "1",
-            "--x",
-            "1",
-            "--y",
-            "1",
-            "--terrain",
-            "frame",
-        ],
-    )
-    .expect_code(2)
-    .stderr_has("allows only the gaits frame-stairs and frame-stairs-45");
-    x30ctl(
-        &sim,
-        &[
-            "nav",
-            "--map-id",
-            "1",
-            "--x",
-            "1",
-            "--y",
-            "1",
-            "--posture",
-            "crouched",
-            "--gait",
-            "perception-stairs",
-        ],
-    )
-    .expect_code(2)
-    .stderr_has("crouched allows only the gaits walk and slope");
+    x30ctl(&sim, &[&NAV[..], &["--terrain", "frame"]].concat())
+        .expect_code(2)
+        .stderr_has("allows only the gaits frame-stairs and frame-stairs-45");
+    let crouched = ["--posture", "crouched", "--gait", "perception-stairs"];
+    x30ctl(&sim, &[&NAV[..], &crouched].concat())
+        .expect_code(2)
+        .stderr_has("crouched allows only the gaits walk and slope");
     x30ctl(&sim, &["nav", "--map-id", "1", "--x", "inf", "--y", "1"])
         .expect_code(2)
         .stderr_has("PosX is not a finite number");
@@ -557,20 +533,10 @@ fn durations_out_of_range_are_refused_saying_why() {
             .expect_code(2)
             .stderr_has(&format!("move: {expected}; nothing sent"));
     }
-    let nav = [
-        "nav",
-        "--map-id",
-        "1",
-        "--x",
-        "1",
-        "--y",
-        "1",
-        "--nav-timeout",
-    ];
-    x30ctl(&sim, &[&nav[..], &["1e20"]].concat())
+    x30ctl(&sim, &[&NAV[..], &["--nav-timeout", "1e20"]].concat())
         .expect_code(2)
         .stderr_has("nav: --nav-timeout 1e20 is too long; nothing sent");
-    x30ctl(&sim, &[&nav[..], &["-5"]].concat())
+    x30ctl(&sim, &[&NAV[..], &["--nav-timeout", "-5"]].concat())
         .expect_code(2)
         .stderr_has("nav: --nav-timeout -5 is not a positive number of seconds");
     assert!(sim.requests().is_empty());
