@@ -369,7 +369,7 @@ pub struct WatchArgs {
           value_parser = clap::value_parser!(u64).range(1..=3_600_000))]
     pub interval_ms: u64,
     /// Stop after this many refreshes (default: until Ctrl-C).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     pub count: Option<u64>,
 }
 

@@ -610,6 +610,13 @@ fn watch_plain_lines_and_json() {
     assert_eq!(lines[1]["status"]["kind"], "status");
     assert!(lines[1]["battery"]["battery_level"].is_i64());
     assert_eq!(lines[1]["perception"]["obs_state"]["code"], 0);
+
+    // No refresh at all is a usage error, not a silent success.
+    let requests = sim.requests().len();
+    x30ctl(&sim, &["watch", "--count", "0"])
+        .expect_code(2)
+        .stderr_has("0 is not in 1..");
+    assert_eq!(sim.requests().len(), requests);
 }
 
 #[test]
