@@ -4,11 +4,15 @@
 //! encoder produced (never writing a document of their own), so every answer starts out
 //! exactly as a correct robot would send it.
 
+use std::collections::BTreeSet;
 use std::fmt;
 use std::str::FromStr;
 use std::time::{Duration, Instant};
 
 use x30_panel::proto::frame::HEADER_LEN;
+
+use crate::Robot;
+use crate::outbox::encode_frame;
 
 /// The Type every answer carries under [`Faults::unknown_type`]: RTK position, added by
 /// vendor software after V1.0.12 (docs/protocol.md, "Unknown Types"), so a client built for
@@ -413,6 +417,30 @@ fn items_block(body: &[u8]) -> Option<ItemsBlock<'_>> {
     })
 }
 
+/// The item names of the simulator's answers ([`Robot::sample_answers`] of a fresh robot):
+/// the names [`Faults::leave_out`] can take out.
+pub fn answer_item_names() -> BTreeSet<String> {
+    let mut names = BTreeSet::new();
+    for answer in Robot::new(1.0).sample_answers() {
+        let Some(frame) = encode_frame(0, &answer, &Faults::default()) else {
+            continue;
+        };
+        let Some(block) = items_block(&frame) else {
+            continue;
+        };
+        for line in block.lines {
+            let name = line
+                .split(|&b| b == b'<')
+                .nth(1)
+                .and_then(|tag| tag.split(|&b| b == b'>').next());
+            if let Some(name) = name.filter(|name| !name.is_empty()) {
+                names.insert(String::from_utf8_lossy(name).into_owned());
+            }
+        }
+    }
+    names
+}
+
 /// Position of the first occurrence of `needle` in `haystack`.
 fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
     haystack.windows(needle.len()).position(|w| w == needle)
@@ -424,6 +452,30 @@ mod tests {
     use x30_panel::proto::codes::{CommandResult, MotionState};
     use x30_panel::proto::message::{Battery, CommandAck, Response, RobotStatus};
     use x30_panel::proto::time::Timestamp;
+
+    #[test]
+    fn answer_item_names_are_every_answers_and_only_answers() {
+        let names = answer_item_names();
+        // One of each answer: 1002, 2001, 2002, 1008, 1007, 1003, Type 2.
+        for name in [
+            "MotionState",
+            "OnDockState",
+            "BatteryLevel",
+            "BatteryTemperature",
+            "ObsState",
+            "RightBackKnee",
+            "Status",
+            "ErrorStatus",
+            "Value",
+            "ErrorCode",
+        ] {
+            assert!(names.contains(name), "{name} missing from {names:?}");
+        }
+        // A request's item, an undocumented one the robot may add, and a misspelling.
+        for name in ["LUM", "AngleYaw", "Batterylevel"] {
+            assert!(!names.contains(name), "{name} in {names:?}");
+        }
+    }
 
     fn encode(response: &Response) -> Vec<u8> {
         let mut buf = [0u8; 2048];

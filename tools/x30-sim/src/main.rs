@@ -88,8 +88,8 @@ struct Cli {
     #[arg(long)]
     sparse_status: bool,
     /// Leave the item NAME out of every answer (repeatable, or names separated by commas):
-    /// a robot that lacks that reading.
-    #[arg(long, value_name = "NAME", value_delimiter = ',')]
+    /// a robot that lacks that reading. A name no answer has is refused.
+    #[arg(long, value_name = "NAME", value_delimiter = ',', value_parser = answer_item)]
     leave_out: Vec<String>,
     /// Write floats in answers with a decimal comma (`12,345678`), as a robot under a
     /// locale such as de_DE would.
@@ -147,6 +147,19 @@ fn type_delay(text: &str) -> Result<(i32, Duration), String> {
         .parse::<u64>()
         .map_err(|e| format!("milliseconds {ms:?}: {e}"))?;
     Ok((message_type, Duration::from_millis(ms)))
+}
+
+/// An item name some answer has, for `--leave-out`: a misspelt one would leave nothing out.
+fn answer_item(text: &str) -> Result<String, String> {
+    let names = x30_sim::faults::answer_item_names();
+    if names.contains(text) {
+        return Ok(text.to_owned());
+    }
+    let known: Vec<&str> = names.iter().map(String::as_str).collect();
+    Err(format!(
+        "no answer has an item {text:?}; the answers' items: {}",
+        known.join(", ")
+    ))
 }
 
 fn positive_float(text: &str) -> Result<f64, String> {

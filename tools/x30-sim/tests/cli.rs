@@ -96,6 +96,8 @@ fn refuses_bad_arguments() {
         &["--delay-type", "1002=-5"],
         &["--refuse-estops", "-1"],
         &["--refuse-for-ms", "soon"],
+        // A misspelt item would leave nothing out.
+        &["--leave-out", "BatteryLevel,Batterylevel"],
     ] {
         let status = Command::new(env!("CARGO_BIN_EXE_x30-sim"))
             .args(args)

@@ -22,9 +22,9 @@ mod power;
 use std::time::Duration;
 
 use x30_panel::proto::codes::{
-    ChargeState, CommandResult, ControlMode, ErrorStatus, GaitState, LocalizationResult, Location,
-    MotionGait, MotionState, MotorState, NavOutcome, NavTaskStatus, ObsMode, ObsState, OnDockState,
-    PointInfo,
+    ChargeState, CommandResult, ControlMode, ErrorStatus, GaitState, LightEffect,
+    LocalizationResult, Location, MotionGait, MotionState, MotorState, NavOutcome, NavTaskStatus,
+    ObsMode, ObsState, OnDockState, PointInfo,
 };
 use x30_panel::proto::message::{
     Battery, CommandAck, Direction, Light, MapImage, MotionAck, MotionCommand, MotionValue,
@@ -335,6 +335,52 @@ impl Robot {
             Request::Relocalize(pose) => Response::Relocalize(self.relocalize(pose)),
         };
         Reply::Now(answer)
+    }
+
+    /// One answer of each kind the robot gives, for what they can hold: every Type's, as it
+    /// would answer now, and a completed navigation task's.
+    pub fn sample_answers(&mut self) -> Vec<Response> {
+        let from = Requester {
+            conn: 0,
+            message_id: 0,
+        };
+        let light = Light {
+            red: 0,
+            green: 0,
+            blue: 0,
+            effect: LightEffect::Steady,
+            brightness: 0,
+        };
+        let pose = Relocalize {
+            pos_x: 0.0,
+            pos_y: 0.0,
+            pos_z: 0.0,
+            yaw: 0.0,
+        };
+        let requests = [
+            Request::Status,
+            Request::Battery,
+            Request::Perception,
+            Request::MotorTemperatures,
+            Request::NavStatus,
+            Request::CancelNav,
+            Request::Motion(MotionCommand::ZeroVelocity),
+            Request::Light(light),
+            Request::Relocalize(pose),
+        ];
+        let mut answers: Vec<Response> = requests
+            .iter()
+            .filter_map(|request| match self.handle(request, from, self.real_now) {
+                Reply::Now(answer) => Some(answer),
+                _ => None,
+            })
+            .collect();
+        answers.push(Response::NavResult(NavResult {
+            value: 1,
+            outcome: NavOutcome::Succeeded,
+            status: ErrorStatus::TaskCompleted,
+        }));
+        answers
     }
 
     /// Tells the robot that a connection has closed: a task it asked for stops with 41802
