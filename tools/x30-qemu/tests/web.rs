@@ -418,6 +418,33 @@ async fn check_page(
             "a stale battery answer is not marked stale: class {drawn}"
         ));
     }
+    // Sections whose JSON has no `stale` of its own (the LEDs; the battery level taken
+    // from the status) are drawn the same, not greyed out, however often they are drawn.
+    let drawn = client
+        .execute_async(
+            "const done = arguments[arguments.length - 1];
+             fetch('/api/status').then(r => r.json()).then(d => {
+                 d.battery = null;
+                 const seen = [];
+                 for (let i = 0; i < 3; i++) {
+                     show(d);
+                     seen.push(['leds', 'battery']
+                         .map(id => id + ':' + document.getElementById(id).className));
+                 }
+                 done(seen.join(' '));
+             }, e => done('no status: ' + e));",
+            vec![],
+        )
+        .await
+        .map_err(fail("draw the LEDs and the status's battery level"))?;
+    if drawn
+        .as_str()
+        .is_none_or(|classes| classes.contains("stale"))
+    {
+        return Err(format!(
+            "current LEDs or battery level drawn as stale: classes {drawn}"
+        ));
+    }
     // The same from the panel's own JSON: a robot that stops answering its status (each
     // answer held a minute) has it greyed out once the panel holds it too old, two
     // seconds on, and shown again once the robot answers it again.
