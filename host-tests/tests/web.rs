@@ -619,8 +619,13 @@ fn with_pin() -> Settings {
 
 /// The settings page for `settings` and `posted`.
 fn page(settings: Option<&Settings>, posted: Option<&Posted>) -> String {
+    page_after(settings, posted, b"")
+}
+
+/// The settings page for `settings` and `posted`, which posted `posted_form`.
+fn page_after(settings: Option<&Settings>, posted: Option<&Posted>, posted_form: &[u8]) -> String {
     let mut text = String::new();
-    web::write_settings_page(settings, posted, &mut text).unwrap();
+    web::write_settings_page(settings, posted, posted_form, &mut text).unwrap();
     text
 }
 
@@ -750,7 +755,19 @@ fn the_largest_settings_page_fits_settings_page_max() {
         status: 400,
         message: "\"".repeat(256).as_str().try_into().unwrap(),
     };
-    let text = page(Some(&settings), Some(&posted));
+    // A refused form as long as allowed, its values all quotes (unencoded, each escapes
+    // to six bytes), as long as a value may be.
+    let mut typed = String::from("pin=2468");
+    for &key in Key::ALL.iter().filter(|&&k| k != Key::WebPin) {
+        let room = FORM_MAX.saturating_sub(typed.len() + key.name().len() + 2);
+        if room == 0 {
+            break;
+        }
+        let quotes = "\"".repeat(room.min(MAX_VALUE));
+        typed += &format!("&{}={quotes}", key.name());
+    }
+    assert!(typed.len() <= FORM_MAX && typed.len() > FORM_MAX - 64);
+    let text = page_after(Some(&settings), Some(&posted), typed.as_bytes());
     assert!(text.contains("FFFFFF:100:breathing,FFFFFF"), "{text}");
     assert!(
         text.len() <= SETTINGS_PAGE_MAX,
@@ -971,9 +988,74 @@ async fn an_invalid_value_is_refused_naming_the_setting_and_nothing_saved() {
     assert_eq!(posted.status, 400);
     assert_eq!(
         posted.message,
-        "speed-forward: expected m/s from 0 to 1.5, or default (the robot's 0.5); nothing saved"
+        "speed-forward: `2` is not valid: expected m/s from 0 to 1.5, or default (the robot's \
+         0.5); nothing saved"
     );
     assert!(saved.is_none());
+    // A long value is quoted by its start.
+    let long = format!("{}é{}", "1".repeat(31), "2".repeat(200));
+    let body = form(&[("pin", "2468"), ("dock", &long)]);
+    let (posted, _) = post(&Shared::new(), with_pin(), &body).await;
+    assert!(
+        posted.message.starts_with(&format!(
+            "dock: `{}…` is not valid: expected ",
+            "1".repeat(31)
+        )),
+        "{}",
+        posted.message
+    );
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_form_not_saved_comes_back_as_typed_but_for_a_new_pin() {
+    let mut settings = with_pin();
+    settings.set(Key::Repeat, "300").unwrap();
+    settings.commit();
+    let body = form(&[
+        ("pin", "2468"),
+        ("repeat-ms", "250"),
+        ("speed-forward", "2"),
+        ("robot", "10.0.0.9\"><b>"),
+        ("web-pin", "13579"),
+    ]);
+    let (posted, saved) = post(&Shared::new(), settings.clone(), &body).await;
+    assert_eq!(posted.status, 400, "{}", posted.message);
+    assert!(saved.is_none());
+    let text = page_after(Some(&settings), Some(&posted), &body);
+    let fields = inputs(&text);
+    let value = |name: &str| {
+        fields
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
+            .unwrap_or_else(|| panic!("no field {name} in {text}"))
+    };
+    assert_eq!(value("repeat-ms"), "250", "as typed, not the saved 300");
+    assert_eq!(value("speed-forward"), "2");
+    assert_eq!(value("robot"), "10.0.0.9\"><b>");
+    assert!(!text.contains("<b>"), "typed text escaped: {text}");
+    assert_eq!(value("web-pin"), "****", "a new PIN is never shown");
+    assert!(!text.contains("13579"), "{text}");
+    assert_eq!(
+        value("lights"),
+        value_saved(&settings, Key::Lights),
+        "not typed: saved"
+    );
+    // Once saved, the page shows what is saved, not the form.
+    let saved = Posted {
+        status: 200,
+        message: "saved repeat-ms".try_into().unwrap(),
+    };
+    let text = page_after(Some(&settings), Some(&saved), &body);
+    assert!(!text.contains("value=\"2\""), "{text}");
+}
+
+/// `key`'s saved value as the page writes it.
+fn value_saved(settings: &Settings, key: Key) -> String {
+    let text = page(Some(settings), None);
+    let fields = inputs(&text);
+    let (_, value) = fields.into_iter().find(|(n, _)| n == key.name()).unwrap();
+    value
 }
 
 #[tokio::test(flavor = "current_thread")]

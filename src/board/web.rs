@@ -219,6 +219,7 @@ impl RequestHandlerService for PostSettings {
         };
         let body = request.body_connection.body();
         let length = body.content_length();
+        let mut read_whole = false;
         let posted = if length > FORM_MAX {
             // Not read: picoserve discards it (within its read timeout) or closes.
             message(413, "The form is too long: nothing was changed.")
@@ -233,6 +234,7 @@ impl RequestHandlerService for PostSettings {
             drop(form);
             match read {
                 Ok(()) => {
+                    read_whole = true;
                     POSTED.reset();
                     FORM_READY.signal(());
                     POSTED.wait().await
@@ -244,7 +246,17 @@ impl RequestHandlerService for PostSettings {
             }
         };
         show_settings(&mut shown);
-        settings_page(request, response_writer, shown.first(), Some(&posted)).await
+        // The settings task is done with the form, and no other POST fills it while this
+        // one holds `SHOWN`: the page shows what was typed if it was not saved.
+        let form = FORM.lock().await;
+        let typed = if read_whole { &form[..] } else { &[] };
+        settings_page(
+            request,
+            response_writer,
+            shown.first(),
+            Some((&posted, typed)),
+        )
+        .await
     }
 }
 
@@ -257,16 +269,17 @@ fn show_settings(shown: &mut heapless::Vec<Settings, 1>) {
     }
 }
 
-/// Answers `request` with the settings page for `settings`, and `posted`'s message and
-/// status after a POST.
+/// Answers `request` with the settings page for `settings`, and after a POST its message
+/// and status, and the form it posted.
 async fn settings_page<R: Read, W: ResponseWriter<Error = R::Error>>(
     request: Request<'_, R>,
     response_writer: W,
     settings: Option<&Settings>,
-    posted: Option<&Posted>,
+    posted: Option<(&Posted, &[u8])>,
 ) -> Result<ResponseSent, W::Error> {
+    let (posted, form) = posted.map_or((None, &[][..]), |(posted, form)| (Some(posted), form));
     let status = posted.map_or(StatusCode::OK, |p| StatusCode::new(p.status));
-    let body = |out: &mut fmt::Formatter<'_>| web::write_settings_page(settings, posted, out);
+    let body = |out: &mut fmt::Formatter<'_>| web::write_settings_page(settings, posted, form, out);
     answer(request, response_writer, status, HTML, body).await
 }
 
@@ -277,7 +290,7 @@ async fn busy<R: Read, W: ResponseWriter<Error = R::Error>>(
     response_writer: W,
 ) -> Result<ResponseSent, W::Error> {
     let posted = message(503, "Another settings request is under way: try again.");
-    settings_page(request, response_writer, None, Some(&posted)).await
+    settings_page(request, response_writer, None, Some((&posted, &[]))).await
 }
 
 /// A settings page message with its status.

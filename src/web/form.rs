@@ -139,8 +139,8 @@ enum Problem {
     ReadOnly,
     /// The PIN is missing or wrong.
     PinWrong,
-    /// A value not valid for its setting.
-    Invalid(Invalid),
+    /// A value not valid for its setting, and its start as typed.
+    Invalid(Invalid, TypedStart),
     /// The settings' owner did not save.
     Refused(Refused),
 }
@@ -157,7 +157,7 @@ impl Problem {
         match self {
             Self::TooLong => 413,
             Self::Name(_) | Self::Unknown(_) | Self::Value(..) | Self::Twice(_) => 400,
-            Self::Invalid(_) => 400,
+            Self::Invalid(..) => 400,
             Self::ReadOnly | Self::PinWrong => 403,
             Self::NotAvailable | Self::Refused(Refused::NoOwner) => 503,
             Self::Refused(
@@ -185,7 +185,12 @@ impl fmt::Display for Problem {
                  (`set web-pin 1234`, then `save`) to change settings here",
             ),
             Self::PinWrong => f.write_str("PIN wrong"),
-            Self::Invalid(invalid) => write!(f, "{invalid}"),
+            Self::Invalid(Invalid(key), typed) => write!(
+                f,
+                "{}: `{typed}` is not valid: expected {}",
+                key.name(),
+                key.allowed()
+            ),
             // Says itself that nothing was saved.
             Self::Refused(refused) => return write!(f, "{refused}"),
         }?;
@@ -290,7 +295,53 @@ fn change(settings: &mut Settings, key: Key, text: &str) -> Result<(), Problem> 
         settings.unset(key);
         return Ok(());
     }
-    settings.set(key, text).map_err(Problem::Invalid)
+    settings
+        .set(key, text)
+        .map_err(|invalid| Problem::Invalid(invalid, TypedStart::of(text)))
+}
+
+/// The start of a value as typed, for a message about it: [`TYPED_SHOWN`] bytes at most,
+/// cut at a character and marked `…` when cut.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct TypedStart(heapless::String<{ TYPED_SHOWN + '…'.len_utf8() }>);
+
+/// Most bytes of a typed value a message quotes.
+const TYPED_SHOWN: usize = 32;
+
+impl TypedStart {
+    /// The start of `text`.
+    fn of(text: &str) -> Self {
+        let mut start = heapless::String::new();
+        for c in text.chars() {
+            if start.len() + c.len_utf8() > TYPED_SHOWN {
+                // The room for the mark is kept.
+                let _ = start.push('…');
+                break;
+            }
+            let _ = start.push(c);
+        }
+        Self(start)
+    }
+}
+
+impl fmt::Display for TypedStart {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// The value of `key`'s field in `form`, decoded into `value`; `None` when the form has no
+/// such field or it cannot be decoded.
+pub(super) fn typed_value<'v>(
+    form: &[u8],
+    key: Key,
+    value: &'v mut [u8; MAX_VALUE],
+) -> Option<&'v str> {
+    let field = fields(form).find(|field| {
+        let mut name = [0; NAME_MAX];
+        decode(field.name, &mut name).is_ok_and(|name| Key::from_name(name) == Some(key))
+    })?;
+    decode(field.value, value).ok()
 }
 
 /// What a form field is.

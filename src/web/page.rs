@@ -3,7 +3,7 @@
 
 use core::fmt::{self, Write};
 
-use super::form::{MASKED_PIN, MESSAGE_MAX, Posted};
+use super::form::{FORM_MAX, MASKED_PIN, MESSAGE_MAX, Posted, typed_value};
 use super::{HEAD_LEN, escape, escaped_len, head};
 use crate::proto::xml::number::F32_TEXT_MAX;
 use crate::settings::text::{MAX_LIGHT_PRESETS, MAX_PIN_DIGITS};
@@ -11,9 +11,10 @@ use crate::settings::{Key, MAX_VALUE, Settings, Syntax};
 
 /// Longest page [`write_settings_page`] writes, bytes: every value at the longest text its
 /// syntax allows (text that needs no escaping: digits, letters and `.:,/-`), a message of
-/// [`MESSAGE_MAX`] escaped at worst, and the page around them.
+/// [`MESSAGE_MAX`] escaped at worst, a refused form's values (at most [`FORM_MAX`] bytes
+/// together) escaped at worst, and the page around them.
 pub const SETTINGS_PAGE_MAX: usize = {
-    let mut total = HEAD_LEN + TITLE.len() + FRAME_MAX + ESCAPED * MESSAGE_MAX;
+    let mut total = HEAD_LEN + TITLE.len() + FRAME_MAX + ESCAPED * MESSAGE_MAX + ESCAPED * FORM_MAX;
     let mut keys = Key::ALL;
     while let [key, rest @ ..] = keys {
         total +=
@@ -61,17 +62,29 @@ const fn value_max(syntax: Syntax) -> usize {
 const TITLE: &str = "<title>X30 panel settings</title>";
 
 /// Writes the `/settings` page: the settings table, the form when a PIN is set (else how to
-/// set one), and `posted`'s message after a POST.
+/// set one), and `posted`'s message after a POST. When that POST was not saved, its form
+/// `posted_form` fills the fields it has, so that nothing typed is lost (but a new PIN,
+/// which the page never shows).
 pub fn write_settings_page(
     settings: Option<&Settings>,
     posted: Option<&Posted>,
+    posted_form: &[u8],
     out: &mut impl fmt::Write,
 ) -> fmt::Result {
-    page(settings, posted, out)
+    page(settings, posted, posted_form, out)
 }
 
 /// [`write_settings_page`], one copy whatever the writer.
-fn page(settings: Option<&Settings>, posted: Option<&Posted>, out: &mut dyn Write) -> fmt::Result {
+fn page(
+    settings: Option<&Settings>,
+    posted: Option<&Posted>,
+    posted_form: &[u8],
+    out: &mut dyn Write,
+) -> fmt::Result {
+    let refused_form = match posted {
+        Some(posted) if posted.status != 200 => posted_form,
+        _ => &[],
+    };
     out.write_str(head())?;
     out.write_str(TITLE)?;
     out.write_str("<h1>Settings</h1><p><a href=\"/\">Status</a></p>")?;
@@ -110,7 +123,7 @@ fn page(settings: Option<&Settings>, posted: Option<&Posted>, out: &mut dyn Writ
     }
     out.write_str("<div id=settings>")?;
     for &key in Key::ALL {
-        row(out, &saved, key, form)?;
+        row(out, &saved, key, form.then_some(refused_form))?;
     }
     out.write_str("</div>")?;
     if form {
@@ -123,9 +136,9 @@ fn page(settings: Option<&Settings>, posted: Option<&Posted>, out: &mut dyn Writ
     out.write_str("</body></html>")
 }
 
-/// One setting: its name, whether it is the default, its value (in a field when `form`),
-/// and what it allows.
-fn row(out: &mut dyn Write, settings: &Settings, key: Key, form: bool) -> fmt::Result {
+/// One setting: its name, whether it is the default, its value (in a field of the form
+/// when there is one: as `typed` there, if it is), and what it allows.
+fn row(out: &mut dyn Write, settings: &Settings, key: Key, form: Option<&[u8]>) -> fmt::Result {
     let name = key.name();
     let origin = if settings.is_overridden(key) {
         "set"
@@ -144,9 +157,14 @@ fn row(out: &mut dyn Write, settings: &Settings, key: Key, form: bool) -> fmt::R
         // Every value fits: the store keeps no longer ones.
         let _ = key.write(settings.config(), &mut value);
     }
-    if form {
+    if let Some(typed) = form {
+        let mut typed_text = [0; MAX_VALUE];
+        let shown = match typed_value(typed, key, &mut typed_text) {
+            Some(text) if key != Key::WebPin => text,
+            _ => &value,
+        };
         write!(out, "<input id=\"k-{name}\" name=\"{name}\" value=\"")?;
-        escape(out, &value)?;
+        escape(out, shown)?;
         out.write_str("\">")?;
     } else {
         write!(out, "<code id=\"k-{name}\">")?;

@@ -500,6 +500,19 @@ async fn check_page(
     }
     panel.send("console show speed-forward");
     line_after(panel, from, &speed_shown("0.7"))?;
+    // The refused form comes back as typed, so that the person only fixes the PIN.
+    let typed = client
+        .find(Locator::Css("input[name='speed-forward']"))
+        .await
+        .map_err(fail("find speed-forward"))?
+        .prop("value")
+        .await
+        .map_err(fail("read speed-forward"))?;
+    if typed.as_deref() != Some("0.9") {
+        return Err(format!(
+            "the refused form shows speed-forward {typed:?}, not the 0.9 typed"
+        ));
+    }
     Ok(())
 }
 
