@@ -99,9 +99,83 @@ fn executable(message: &str) -> Option<PathBuf> {
     message["executable"].as_str().map(PathBuf::from)
 }
 
+/// Where the QEMU board's code memory ends: 4 MiB from address 0 (its memory layout), where
+/// QEMU loads the ELF and where its entry point must lie.
+const CODE_END: u32 = 0x0040_0000;
+
+/// Checks that the file at `elf` can be the QEMU board's firmware: a 32-bit little-endian
+/// Arm ELF whose entry point lies in the board's code memory. A Nucleo build (the same path
+/// as the QEMU build's) or any other file would make QEMU stop at once with a CPU lockup
+/// and a register dump, which names neither the file nor the mistake.
+pub fn check(elf: &Path) -> Result<(), String> {
+    let mut header = [0u8; 28];
+    let read = std::fs::File::open(elf).and_then(|mut file| {
+        use std::io::Read;
+        file.read_exact(&mut header)
+    });
+    let shown = elf.display();
+    let build = "build it with `cargo build-qemu`, or leave --firmware out";
+    if read.is_err() || header[..4] != *b"\x7fELF" {
+        return Err(format!("--firmware {shown}: not an ELF file; {build}"));
+    }
+    // ELF32 (class 1), little-endian (data 1), machine 40: Arm.
+    let machine = u16::from_le_bytes([header[18], header[19]]);
+    if header[4] != 1 || header[5] != 1 || machine != 40 {
+        return Err(format!("--firmware {shown}: not a 32-bit Arm ELF; {build}"));
+    }
+    let entry = u32::from_le_bytes([header[24], header[25], header[26], header[27]]);
+    if entry >= CODE_END {
+        return Err(format!(
+            "--firmware {shown}: its entry point {entry:#010x} is outside the QEMU board's \
+             code memory (below {CODE_END:#x}): a Nucleo build? Both boards' builds write \
+             target/thumbv7em-none-eabihf/release/x30-panel; {build}"
+        ));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An ELF32 header's first 28 bytes: `class`, `data`, `machine` and `entry` as given.
+    fn header(class: u8, data: u8, machine: u16, entry: u32) -> Vec<u8> {
+        let mut bytes = vec![0u8; 52];
+        bytes[..4].copy_from_slice(b"\x7fELF");
+        (bytes[4], bytes[5]) = (class, data);
+        bytes[18..20].copy_from_slice(&machine.to_le_bytes());
+        bytes[24..28].copy_from_slice(&entry.to_le_bytes());
+        bytes
+    }
+
+    #[test]
+    fn only_an_arm_elf_for_the_boards_code_memory_passes() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("x30-panel");
+        let cases: [(Vec<u8>, Option<&str>); 6] = [
+            (header(1, 1, 40, 0x0000_0401), None),
+            (
+                header(1, 1, 40, 0x0800_0199),
+                Some("outside the QEMU board's code memory"),
+            ),
+            (header(2, 1, 40, 0x401), Some("not a 32-bit Arm ELF")),
+            (header(1, 1, 62, 0x401), Some("not a 32-bit Arm ELF")),
+            (
+                b"root:x:0:0:root:/root:/bin/bash\n".to_vec(),
+                Some("not an ELF file"),
+            ),
+            (b"\x7fEL".to_vec(), Some("not an ELF file")),
+        ];
+        for (bytes, problem) in cases {
+            std::fs::write(&file, &bytes).unwrap();
+            match (check(&file), problem) {
+                (Ok(()), None) => {}
+                (Err(e), Some(problem)) => assert!(e.contains(problem), "{e}"),
+                (result, _) => panic!("{bytes:?}: {result:?}, expected {problem:?}"),
+            }
+        }
+        assert!(check(&dir.path().join("missing")).is_err());
+    }
 
     #[test]
     fn root_holds_the_firmware_crate() {

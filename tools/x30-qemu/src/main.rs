@@ -129,7 +129,10 @@ fn run(cli: &Cli) -> Result<u8, String> {
         )
     })?;
     let elf = match &cli.firmware {
-        Some(elf) if elf.is_file() => elf.clone(),
+        Some(elf) if elf.is_file() => {
+            firmware::check(elf)?;
+            elf.clone()
+        }
         Some(elf) => return Err(format!("--firmware {}: no such file", elf.display())),
         None => {
             eprintln!(

@@ -11,8 +11,29 @@ use common::*;
 use nix::sys::signal::{self, Signal};
 use nix::unistd::Pid;
 
-/// The stand-in for QEMU; it also serves as the "firmware" file, which it never reads.
+/// The stand-in for QEMU.
 const FAKE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fake-qemu.sh");
+
+/// An ELF header with `entry` as its entry point, the start of an Arm firmware image: what
+/// x30-qemu checks of `--firmware` (the fake QEMU reads nothing of it).
+fn elf_header(entry: u32) -> Vec<u8> {
+    let mut bytes = vec![0u8; 52];
+    bytes[..6].copy_from_slice(b"\x7fELF\x01\x01");
+    bytes[18..20].copy_from_slice(&40u16.to_le_bytes());
+    bytes[24..28].copy_from_slice(&entry.to_le_bytes());
+    bytes
+}
+
+/// A stand-in firmware for the QEMU board, made once for every test of this file.
+fn firmware() -> &'static str {
+    static FILE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    FILE.get_or_init(|| {
+        let dir = folder().keep();
+        let file = dir.join("x30-panel");
+        std::fs::write(&file, elf_header(0x0000_0401)).expect("write the stand-in firmware");
+        file.to_str().expect("a UTF-8 path").to_owned()
+    })
+}
 
 /// Longest any one run may take before the test fails.
 const LIMIT: Duration = Duration::from_secs(20);
@@ -25,7 +46,7 @@ fn start(extra: &[&str]) -> Running {
         "--qemu",
         FAKE,
         "--firmware",
-        FAKE,
+        firmware(),
     ];
     args.extend_from_slice(extra);
     Running::start(&args)
@@ -99,7 +120,8 @@ fn boots_qemu_with_the_board_the_robot_the_console_the_settings_and_the_firmware
         format!(
             "-serial stdio -serial chardev:console -semihosting-config \
              enable=on,target=native,arg=x30-panel,arg=10.0.2.2:30123,arg=settings={settings_arg} \
-             -nic user,model=lan9118 -kernel {FAKE}"
+             -nic user,model=lan9118 -kernel {}",
+            firmware()
         ),
         "{run}"
     );
@@ -372,7 +394,7 @@ fn missing_qemu_is_named() {
         "--qemu",
         "x30-no-such-qemu",
         "--firmware",
-        FAKE,
+        firmware(),
     ])
     .finish(LIMIT)
     .expect_code(2)
@@ -393,6 +415,36 @@ fn missing_firmware_is_named() {
     .finish(LIMIT)
     .expect_code(2)
     .stderr_has("--firmware /nonexistent/x30-panel: no such file");
+}
+
+#[test]
+fn a_file_that_cannot_be_the_qemu_boards_firmware_is_named() {
+    let dir = folder();
+    let nucleo = dir.path().join("x30-panel");
+    // The Nucleo's code starts at 0x0800_0000.
+    std::fs::write(&nucleo, elf_header(0x0801_8001)).unwrap();
+    let nucleo = nucleo.to_str().unwrap();
+    for (file, problem) in [
+        (FAKE, "not an ELF file"),
+        (
+            nucleo,
+            "its entry point 0x08018001 is outside the QEMU board's code memory",
+        ),
+    ] {
+        let run = Running::start(&[
+            "--robot",
+            "127.0.0.1:30000",
+            "--qemu",
+            FAKE,
+            "--firmware",
+            file,
+        ])
+        .finish(LIMIT);
+        run.expect_code(2)
+            .stderr_has(&format!("--firmware {file}: {problem}"))
+            .stderr_has("cargo build-qemu");
+        assert!(!run.stdout.contains("fake-qemu pid"), "QEMU started\n{run}");
+    }
 }
 
 #[test]
