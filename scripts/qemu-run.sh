@@ -19,6 +19,18 @@ fi
 elf=$1
 robot=${2:-${X30_QEMU_ROBOT:-10.0.2.2:30000}}
 
+# The board's code memory is the 4 MiB at address 0, where its firmware's entry point lies;
+# a Nucleo build (same path) starts at 0x0800_0000, and QEMU would only report a CPU lockup.
+[ -f "$elf" ] || { echo "$elf: no such file" >&2; exit 2; }
+# A file too short for a header reads as no magic or no entry point.
+magic=$(od -An -t x1 -N 4 "$elf" 2>/dev/null | tr -d ' \n') || true
+entry=$(od -An -t u4 -j 24 -N 4 "$elf" 2>/dev/null | tr -d ' \n') || true
+if [ "$magic" != 7f454c46 ] || [ -z "$entry" ] || [ "$entry" -ge 4194304 ]; then
+    echo "$elf: not the QEMU board's firmware (an ELF whose entry point lies below 0x400000);" \
+        "build it with cargo build-qemu (cargo build-nucleo writes the same path)" >&2
+    exit 2
+fi
+
 if ! command -v qemu-system-arm >/dev/null; then
     echo "qemu-system-arm not found: apt-get install qemu-system-arm" >&2
     exit 127
