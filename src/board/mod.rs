@@ -44,4 +44,7 @@ pub fn start(init: impl FnOnce(embassy_executor::Spawner)) -> ! {
 
 // Without this, naming `_firmware` alone would fail later with unresolved `board::run`.
 #[cfg(not(any(feature = "board-nucleo-f767zi", feature = "board-qemu-mps2-an386")))]
-compile_error!("enable one board feature, such as `board-nucleo-f767zi`");
+compile_error!(
+    "enable one board feature: `board-nucleo-f767zi` (`cargo nucleo`, `cargo build-nucleo`) \
+     or `board-qemu-mps2-an386` (`cargo build-qemu`)"
+);
