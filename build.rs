@@ -77,14 +77,18 @@ fn main() {
         // A library-only build for the target (no board): nothing to link.
         [] => return,
         [board] => *board,
-        _ => panic!(
-            "select exactly one board feature, got: {}",
-            selected
-                .iter()
-                .map(|b| b.feature)
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
+        _ => {
+            // An error Cargo shows as it is, without a build-script panic's backtrace.
+            println!(
+                "cargo::error=select exactly one board feature, got: {}",
+                selected
+                    .iter()
+                    .map(|b| b.feature)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+            return;
+        }
     };
 
     let manifest_dir = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("set by Cargo"));
