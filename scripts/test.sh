@@ -41,6 +41,11 @@ status=0
 X30_QEMU_TIMEOUT=10 scripts/qemu-run.sh target/thumbv7em-none-eabihf/release/x30-panel \
     2> /dev/null || status=$?
 [ "$status" = 2 ] || { echo "qemu-run.sh ran the Nucleo image (status $status)" >&2; exit 1; }
+# Two boards at once is a build error naming both (build.rs), not a build-script panic.
+both=board-nucleo-f767zi,board-qemu-mps2-an386
+errors=$(cargo build --release --features "$both" 2>&1) && exit 1
+grep -q "error: .*select exactly one board feature, got: ${both/,/, }$" <<< "$errors" ||
+    { echo "$errors" >&2; echo "no build error naming both boards" >&2; exit 1; }
 
 step "firmware build (QEMU mps2-an386) and on-target tests in QEMU"
 cargo build-qemu
