@@ -718,6 +718,23 @@ fn record_refuses_to_overwrite_and_records_nothing_without_a_pose() {
             file.arg()
         ));
     assert_eq!(std::fs::read_to_string(&file.0).unwrap(), "keep me");
+    // A folder that does not exist is found out before any pose is read.
+    let nowhere = std::path::PathBuf::from(format!("{}.missing", file.arg())).join("route.json");
+    x30ctl(
+        &sim,
+        &[
+            "route",
+            "record",
+            nowhere.to_str().unwrap(),
+            "--map-id",
+            "0",
+        ],
+    )
+    .expect_code(2)
+    .stderr_has(&format!(
+        "route record: no folder {}; nothing recorded",
+        nowhere.parent().unwrap().display()
+    ));
     x30ctl(
         &sim,
         &[

@@ -41,6 +41,17 @@ pub fn run(ctx: &Ctx, args: &RouteRecordArgs) -> Result<(), Error> {
             "route record: {shown} exists; --force overwrites it; nothing recorded"
         )));
     }
+    // Found out now, not after the robot was walked to the first point.
+    let folder = args
+        .file
+        .parent()
+        .filter(|folder| !folder.as_os_str().is_empty());
+    if let Some(folder) = folder.filter(|folder| !folder.is_dir()) {
+        return Err(Error::Usage(format!(
+            "route record: no folder {}; nothing recorded",
+            folder.display()
+        )));
+    }
     let lines = stdin_lines();
     let live = Live::new(ctx);
     if !ctx.json {
