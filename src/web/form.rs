@@ -339,7 +339,7 @@ pub(super) fn typed_value<'v>(
 ) -> Option<&'v str> {
     let field = fields(form).find(|field| {
         let mut name = [0; NAME_MAX];
-        decode(field.name, &mut name).is_ok_and(|name| Key::from_name(name) == Some(key))
+        field.field(&mut name) == Ok(Field::Key(key))
     })?;
     decode(field.value, value).ok()
 }
@@ -392,19 +392,23 @@ impl Encoded<'_> {
         name: &mut [u8; NAME_MAX],
         value: &'v mut [u8; MAX_VALUE],
     ) -> Result<(Field, &'v str), Problem> {
-        let name = decode(self.name, name).map_err(Problem::Name)?;
-        let field = if name == PIN_FIELD {
-            Field::Pin
-        } else {
-            let mut unknown = heapless::String::new();
-            Field::Key(Key::from_name(name).ok_or_else(|| {
-                // The name was decoded into as many bytes as this holds.
-                let _ = unknown.push_str(name);
-                Problem::Unknown(unknown)
-            })?)
-        };
+        let field = self.field(name)?;
         let value = decode(self.value, value).map_err(|e| Problem::Value(field, e))?;
         Ok((field, value))
+    }
+
+    /// What the field is, its name decoded into `name`.
+    fn field(&self, name: &mut [u8; NAME_MAX]) -> Result<Field, Problem> {
+        let name = decode(self.name, name).map_err(Problem::Name)?;
+        if name == PIN_FIELD {
+            return Ok(Field::Pin);
+        }
+        let mut unknown = heapless::String::new();
+        Ok(Field::Key(Key::from_name(name).ok_or_else(|| {
+            // The name was decoded into as many bytes as this holds.
+            let _ = unknown.push_str(name);
+            Problem::Unknown(unknown)
+        })?))
     }
 }
 
