@@ -101,6 +101,13 @@ fn speed_keys_allow_what_the_protocol_allows() {
     }
     let c = with(Key::SpeedForward, " 0.8 ").unwrap();
     assert_eq!(c.speeds.get(Direction::Forward), Speed::Value(0.8));
+    // -0 is 0, shown as `0` (and so written to the robot), not as a negative `-0`.
+    let c = with(Key::SpeedForward, "-0").unwrap();
+    assert_eq!(text(Key::SpeedForward, &c), "0");
+    let Speed::Value(zero) = c.speeds.get(Direction::Forward) else {
+        panic!("-0 is a speed");
+    };
+    assert!(zero.is_sign_positive());
     for default in ["-1", "default", "DEFAULT"] {
         let c = with(Key::SpeedTurnLeft, default).unwrap();
         assert_eq!(c.speeds.get(Direction::TurnLeft), Speed::Default);

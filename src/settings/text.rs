@@ -389,13 +389,15 @@ pub fn parse_switch(text: &str) -> Option<bool> {
 }
 
 /// Parses a speed: `-1` or `default` (the robot's default, as -1), otherwise a decimal
-/// from 0 to `max`.
+/// from 0 to `max`; `-0` reads as 0.
 pub fn parse_speed(text: &str, max: f32) -> Option<f32> {
     if text.eq_ignore_ascii_case("default") {
         return Some(-1.0);
     }
     let speed = parse_f32(text.as_bytes()).ok()?;
-    (speed == -1.0 || (0.0..=max).contains(&speed)).then_some(speed)
+    // -0 is within 0..=max, but would be shown, saved and sent to the robot as `-0`, a
+    // negative-looking speed: adding 0 makes it 0.
+    (speed == -1.0 || (0.0..=max).contains(&speed)).then_some(speed + 0.0)
 }
 
 /// Parses a whole number of milliseconds within `min..=max`.
