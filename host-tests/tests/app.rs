@@ -1525,6 +1525,45 @@ async fn motion_is_not_written_while_answers_are_overdue() {
     );
 }
 
+/// A robot that names Command 1 in every motion answer (its answers filled in from one
+/// template) has still answered: the message ID pairs each answer with its request. The
+/// panel shows no failed command and keeps its command connection; taken for no answers,
+/// the zero velocity and the e-stop would be given up on, shown as failed, and the
+/// connection dropped.
+#[tokio::test(flavor = "current_thread")]
+async fn motion_answers_naming_another_command_still_answer() {
+    let faults = Faults {
+        motion_answer_command: Some(1),
+        ..Default::default()
+    };
+    let sim = with_faulty_robot(
+        "Command 1 in motion answers",
+        faults,
+        async |shared, _, _| {
+            press(shared, Button::Forward, true).await;
+            sleep(600).await;
+            press(shared, Button::Forward, false).await;
+            sleep(300).await;
+            click(shared, Button::Estop).await;
+            // Longer than a request's wait (1.5 s) and the silence that gives a connection up
+            // (2 s).
+            sleep(2600).await;
+            let snapshot = shared.snapshot().expect("the application runs");
+            assert!(!snapshot.command_failed, "no command shown as failed");
+        },
+    )
+    .await;
+    let log = sim.requests();
+    let sent = motion(&log);
+    assert!(sent.iter().any(|&(_, c)| c == 6), "zero velocity went out");
+    assert!(sent.iter().any(|&(_, c)| c == 13), "the e-stop went out");
+    assert_eq!(
+        command_connections(&log),
+        1,
+        "the command connection is kept"
+    );
+}
+
 /// A robot that answers the polls but no command: the zero velocity that went unanswered is
 /// given up on after 1.5 s, which does not make the robot answer. A forward held from before
 /// that until the panel gives the connection up never reaches it. It is pressed once the

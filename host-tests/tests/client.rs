@@ -103,15 +103,14 @@ async fn an_empty_frame_is_no_answer_whatever_its_message_id() {
     assert_eq!((anomalies.empty_frames, anomalies.unsolicited), (1, 0));
 }
 
-/// Frames that carry the request's message ID but not its Type, or (a motion command) not
-/// its Command, are no answer to it: a navigation task's wait must not end on a robot's own
-/// report that reuses the ID. The answer after them is the request's.
+/// A frame that carries the request's message ID but not its Type is no answer to it: a
+/// navigation task's wait must not end on a robot's own report that reuses the ID. The
+/// answer after it is the request's.
 #[tokio::test]
-async fn a_frame_of_another_type_or_command_with_the_requests_id_is_no_answer() {
+async fn a_frame_of_another_type_with_the_requests_id_is_no_answer() {
     let addr = peer(|mut s| {
         let mut d = FrameDecoder::new();
         let (perception_id, _) = read_request(&mut s, &mut d).unwrap();
-        let (stop_id, _) = read_request(&mut s, &mut d).unwrap();
         let mut bytes = answer(
             perception_id,
             &Response::NavStatus(NavTaskState {
@@ -120,25 +119,47 @@ async fn a_frame_of_another_type_or_command_with_the_requests_id_is_no_answer() 
                 error_code: NavTaskStatus::Running,
             }),
         );
-        bytes.extend(answer(stop_id, &ack(MotionCommand::SoftEmergencyStop)));
         bytes.extend(answer(perception_id, &perception()));
-        bytes.extend(answer(stop_id, &ack(MotionCommand::ZeroVelocity)));
         s.write_all(&bytes).unwrap();
         thread::sleep(std::time::Duration::from_millis(200));
     });
     let mut link = connected(addr).await;
     let perception_id = link.send(&Request::Perception).await.unwrap();
+    let first = link.receive().await.unwrap();
+    assert_eq!(first.message_id, perception_id);
+    assert_eq!(first.result, Ok(perception()));
+    assert_eq!(link.anomalies().unsolicited, 1);
+}
+
+/// A motion answer with the request's message ID that names another Command (a robot that
+/// fills its answers in from one template) is its answer all the same, as the robot wrote
+/// it, and counted; the request is no longer outstanding.
+#[tokio::test]
+async fn a_motion_answer_naming_another_command_is_its_answer_all_the_same() {
+    let addr = peer(|mut s| {
+        let mut d = FrameDecoder::new();
+        let (stop_id, _) = read_request(&mut s, &mut d).unwrap();
+        s.write_all(&answer(
+            stop_id,
+            &ack(MotionCommand::Move(Direction::Forward, Speed::Default)),
+        ))
+        .unwrap();
+        thread::sleep(std::time::Duration::from_millis(200));
+    });
+    let mut link = connected(addr).await;
     let stop_id = link
         .send(&Request::Motion(MotionCommand::ZeroVelocity))
         .await
         .unwrap();
-    let first = link.receive().await.unwrap();
-    assert_eq!(first.message_id, perception_id);
-    assert_eq!(first.result, Ok(perception()));
-    let second = link.receive().await.unwrap();
-    assert_eq!(second.message_id, stop_id);
-    assert_eq!(second.result, Ok(ack(MotionCommand::ZeroVelocity)));
-    assert_eq!(link.anomalies().unsolicited, 2);
+    let answer = link.receive().await.unwrap();
+    assert_eq!(answer.message_id, stop_id);
+    assert_eq!(
+        answer.result,
+        Ok(ack(MotionCommand::Move(Direction::Forward, Speed::Default)))
+    );
+    let anomalies = link.anomalies();
+    assert_eq!((anomalies.other_command, anomalies.unsolicited), (1, 0));
+    assert!(link.waiting_since().is_none(), "nothing outstanding");
 }
 
 /// A robot that wrote only part of the status answer, then the e-stop's answer: the e-stop's

@@ -41,8 +41,11 @@ pub trait Transport: Read + Write {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Anomalies {
     /// Frames that answered no outstanding request: late or unsolicited answers, and
-    /// frames with a request's message ID but not its Type or Command.
+    /// frames with a request's message ID but not its Type.
     pub unsolicited: u32,
+    /// Motion answers that named another Command than their request's: taken as its
+    /// answer all the same (the message ID pairs them).
+    pub other_command: u32,
     /// Stream errors the frame decoder skipped past: garbage, bad headers, oversized frames,
     /// frames cut short.
     pub stream_errors: u32,
@@ -585,17 +588,17 @@ impl<T: Transport> Connection<T> {
                     ..
                 })
             );
-            // A frame with a request's message ID but another Type or Command is no answer
-            // to it (a robot's own report that reuses the ID, say): taken for one, it would
-            // end a navigation task's wait, and the task with the connection.
+            // A frame with a request's message ID but another Type is no answer to it (a
+            // robot's own report that reuses the ID, say): taken for one, it would end a
+            // navigation task's wait, and the task with the connection.
             // (One of a Type unknown here is that answer's error, as documented.)
-            let echoes = |sent: &Sent| match &decoded {
-                Ok(decoded) => decoded.message.echoes(sent.message_type, sent.command),
+            let answers = |sent: &Sent| match &decoded {
+                Ok(decoded) => decoded.message.answers(sent.message_type),
                 Err(_) => true,
             };
             let Some((message_id, request)) =
                 self.outstanding
-                    .answer_if(frame.message_id, request_error, echoes)
+                    .answer_if(frame.message_id, request_error, answers)
             else {
                 if let Some(count) = count_one(&mut self.anomalies.unsolicited) {
                     warn!(
@@ -605,6 +608,23 @@ impl<T: Transport> Connection<T> {
                 }
                 continue;
             };
+            // The message ID pairs them: a robot that echoes another Command (its template's
+            // 1, say) has still answered, and taking it for silent would hold motion back
+            // and drop the connection of a robot that answers everything.
+            if let Ok(decoded) = &decoded
+                && decoded.message.command() != request.command
+                && !request_error
+                && let Some(count) = count_one(&mut self.anomalies.other_command)
+            {
+                warn!(
+                    "the robot answered Type {} Command {} naming Command {}: taken as its \
+                     answer ({} so far)",
+                    request.message_type.raw(),
+                    request.command,
+                    decoded.message.command(),
+                    count
+                );
+            }
             self.timeouts_in_a_row = 0;
             self.motion_unanswered = false;
             let now = Instant::now();

@@ -5,9 +5,9 @@
 //! come. One exception: a Type 0 answer (request error) to a frame whose header the robot
 //! could not read carries no ID the robot could know. A Type 0 answer whose ID matches no
 //! outstanding request therefore answers the **oldest** one, the first the robot read.
-//! Any other frame answers the request with its ID only if it echoes that request (its
-//! Type and Command, as the caller tells): a robot's own report that reuses the ID is none
-//! of its answers.
+//! Any other frame answers the request with its ID only if it has that request's Type (as
+//! the caller tells): a robot's own report of another Type that reuses the ID is none of
+//! its answers.
 //!
 //! [`Outstanding`] is that rule, for one connection: the firmware's client, `x30ctl` and
 //! the simulator's tests all match answers with it.
@@ -51,17 +51,17 @@ impl<T, const N: usize> Outstanding<T, N> {
     }
 
     /// [`Outstanding::answer`] for a frame that answers the request with its ID only if
-    /// `echoes` holds for that request (the frame carries its Type and Command); a Type 0
-    /// answer answers it regardless. `None`: the frame answers nothing, and the request
+    /// `answers` holds for that request (the frame has its Type); a Type 0 answer answers it
+    /// regardless. `None`: the frame answers nothing, and the request
     /// stays outstanding.
     pub fn answer_if(
         &mut self,
         message_id: u16,
         request_error: bool,
-        echoes: impl FnOnce(&T) -> bool,
+        answers: impl FnOnce(&T) -> bool,
     ) -> Option<(u16, T)> {
         match self.position(message_id) {
-            Some(at) if request_error || self.requests.get(at).is_some_and(|(_, r)| echoes(r)) => {
+            Some(at) if request_error || self.requests.get(at).is_some_and(|(_, r)| answers(r)) => {
                 Some(self.requests.remove(at))
             }
             Some(_) => None,

@@ -483,11 +483,12 @@ impl Response {
         }
     }
 
-    /// Whether this echoes a request's Type and, for a motion command, its Command (the one
-    /// Command an answer keeps), as its answer must: a frame with the request's message ID
-    /// that does not is no answer to it.
-    pub fn echoes(&self, message_type: MessageType, command: i32) -> bool {
-        self.message_type() == message_type && self.command() == command
+    /// Whether this can answer a request of `message_type`: it has that Type. A frame with
+    /// a request's message ID but another Type is no answer to it. A motion answer's Command
+    /// is not compared: the message ID pairs a request with its answer, and a robot that
+    /// echoes another Command has still answered.
+    pub fn answers(&self, message_type: MessageType) -> bool {
+        self.message_type() == message_type
     }
 
     /// Writes the XML body into `out`; returns its length.

@@ -113,6 +113,10 @@ pub struct Faults {
     /// Answer with Type [`UNKNOWN_TYPE`] instead of the real Type, keeping the message ID,
     /// Command and items.
     pub unknown_type: bool,
+    /// Name this Command in every motion answer (Type 2) instead of the request's: a
+    /// `robot_server` that fills its answers in from one template. The message ID, which
+    /// pairs an answer with its request, is kept.
+    pub motion_answer_command: Option<i32>,
     /// Insert [`UNKNOWN_ITEMS`] between the documented items of every answer.
     pub unknown_items: bool,
     /// Report the pose as unknown: status answers carry `nan` for each of
@@ -215,8 +219,8 @@ pub const SPARSE_STATUS_ITEM: &str = "MotionState";
 const SINGLE_DECLARATION: &[u8] = b"<?xml version='1.0' encoding='utf-8'?>";
 
 /// Alters an encoded XML body as the faults ask: fewer items, extra items, an unknown
-/// pose, decimal commas, another Type, another declaration. Without those faults the body
-/// comes back unchanged.
+/// pose, decimal commas, another Command, another Type, another declaration. Without those
+/// faults the body comes back unchanged.
 pub fn alter_body(body: &[u8], faults: &Faults) -> Vec<u8> {
     let mut body = body.to_vec();
     if faults.sparse_status && find(&body, b"<Type>1002</Type>").is_some() {
@@ -241,6 +245,11 @@ pub fn alter_body(body: &[u8], faults: &Faults) -> Vec<u8> {
     }
     if faults.decimal_comma {
         body = decimal_commas(&body);
+    }
+    if let Some(command) = faults.motion_answer_command
+        && find(&body, b"<Type>2</Type>").is_some()
+    {
+        body = replace_text(&body, "Command", &command.to_string());
     }
     if faults.unknown_type {
         body = replace_text(&body, "Type", &UNKNOWN_TYPE.to_string());

@@ -77,6 +77,10 @@ struct Cli {
     /// Answer with Type 2102 instead of the real Type.
     #[arg(long)]
     unknown_type: bool,
+    /// Name Command N in every motion answer (Type 2) instead of the request's, as a robot
+    /// that fills its answers in from one template.
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    motion_answer_command: Option<i32>,
     /// Insert undocumented items (AngleYaw, CurRuntime, RTKState, …) into every answer.
     #[arg(long)]
     unknown_items: bool,
@@ -193,6 +197,7 @@ impl Cli {
                 merge: self.merge,
                 cut_frames: self.cut_frames,
                 unknown_type: self.unknown_type,
+                motion_answer_command: self.motion_answer_command,
                 unknown_items: self.unknown_items,
                 unknown_pose: self.unknown_pose,
                 sparse_status: self.sparse_status,

@@ -143,6 +143,21 @@ fn delay_type_and_refuse_estops() {
     }
 }
 
+/// `--motion-answer-command N`: motion answers name Command N, with the request's ID.
+#[test]
+fn motion_answer_command() {
+    let (_running, addr) = spawn(&["--motion-answer-command", "1"]);
+    let mut client = Client::connect(addr);
+    let id = client.send(&Request::Motion(MotionCommand::ZeroVelocity));
+    let (answer_id, body) = client.recv_frame_within(TIMEOUT).expect("an answer");
+    assert_eq!(answer_id, id);
+    let body = String::from_utf8(body).unwrap();
+    assert!(
+        body.contains("<Type>2</Type>") && body.contains("<Command>1</Command>"),
+        "{body}"
+    );
+}
+
 /// `--mute`: the connection is accepted and stays open, but nothing is answered.
 #[test]
 fn mute() {

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use common::*;
 use x30_panel::proto::frame::{FrameDecoder, FrameError, HEADER_LEN, SYNC};
-use x30_panel::proto::message::{Direction, Request, Response};
+use x30_panel::proto::message::{Direction, MotionCommand, Request, Response};
 use x30_sim::faults::{GARBAGE, MERGED_ID_OFFSET, UNKNOWN_TYPE};
 use x30_sim::{Config, Declaration, Faults};
 
@@ -205,6 +205,32 @@ fn unknown_type_keeps_id_and_items() {
         Response::decode(body.as_bytes()),
         Err(x30_panel::proto::message::DecodeError::UnknownType(2102))
     ));
+}
+
+#[test]
+fn motion_answers_name_another_command_and_keep_the_id() {
+    let sim = start_faulty(Faults {
+        motion_answer_command: Some(1),
+        ..Faults::default()
+    });
+    let mut client = Client::connect(sim.addr());
+    let id = client.send(&Request::Motion(MotionCommand::ZeroVelocity));
+    let (answer_id, body) = next_body(&mut client);
+    assert_eq!(answer_id, id);
+    assert!(body.contains("<Type>2</Type>"), "{body}");
+    assert!(body.contains("<Command>1</Command>"), "{body}");
+    assert!(body.contains("<ErrorCode>0</ErrorCode>"), "{body}");
+    // Other Types keep their Command.
+    client.send(&Request::Perception);
+    let (_, body) = next_body(&mut client);
+    assert!(body.contains("<Command>1</Command>"), "{body}");
+    sim.update_faults(|f| f.motion_answer_command = Some(7));
+    client.send(&Request::Perception);
+    let (_, body) = next_body(&mut client);
+    assert!(body.contains("<Command>1</Command>"), "{body}");
+    client.send(&Request::Motion(MotionCommand::SoftEmergencyStop));
+    let (_, body) = next_body(&mut client);
+    assert!(body.contains("<Command>7</Command>"), "{body}");
 }
 
 #[test]

@@ -144,6 +144,9 @@ pub struct Connection {
     /// Whether a frame with no body has been warned about: a keep-alive comes again and
     /// again, and is told once.
     warned_empty: bool,
+    /// Whether a motion answer naming another Command than its request's has been warned
+    /// about: a robot that does it does it to every answer, and is told once.
+    warned_other_command: bool,
 }
 
 /// Resolves `HOST:PORT` (or `HOST`, meaning port 30000).
@@ -249,6 +252,7 @@ impl Connection {
                         abandoned: Vec::new(),
                         unreadable: Unreadable::default(),
                         warned_empty: false,
+                        warned_other_command: false,
                     });
                 }
                 Err(e) => last = Some(e),
@@ -492,7 +496,7 @@ impl Connection {
     /// turns up (`Some`: the answer, or the error it amounts to) or more bytes are needed.
     ///
     /// Which request a frame answers is decided by [`Outstanding::answer_if`]: the request
-    /// with the frame's message ID if the frame echoes its Type and Command, or, for a
+    /// with the frame's message ID if the frame has its Type, or, for a
     /// Type 0 answer whose ID matches none, the oldest outstanding request. Answers to
     /// other outstanding requests are kept in `early`.
     fn next_answer(
@@ -589,13 +593,13 @@ impl Connection {
             }
         };
         let got = d.message.message_type();
-        // A frame with a request's message ID but not its Type or Command is no answer to
-        // it (the protocol core's rule): a forward's answer does not confirm a zero
-        // velocity, and a robot's own report that reuses a task's ID does not end its wait.
-        let echoes = |&(ty, command): &(MessageType, i32)| d.message.echoes(ty, command);
-        let Some((request_id, (ty, _))) =
+        // A frame with a request's message ID but not its Type is no answer to it (the
+        // protocol core's rule): a robot's own report that reuses a task's ID does not end
+        // its wait.
+        let answers = |&(ty, _): &(MessageType, i32)| d.message.answers(ty);
+        let Some((request_id, (ty, command))) =
             self.outstanding
-                .answer_if(id, request_error.is_some(), echoes)
+                .answer_if(id, request_error.is_some(), answers)
         else {
             warn(&match self.outstanding.get(id) {
                 Some(&(ty, command)) => format!(
@@ -626,6 +630,17 @@ impl Connection {
                 message_type: ty.raw(),
             })
         } else {
+            // The message ID pairs them: another Command named in the answer is the robot's
+            // slip, told once, not a reason to wait on for an answer that will not come.
+            if d.message.command() != command && !self.warned_other_command {
+                self.warned_other_command = true;
+                warn(&format!(
+                    "the robot answered Type {} Command {command} naming Command {} (message \
+                     ID {id}); taken as its answer",
+                    ty.raw(),
+                    d.message.command()
+                ));
+            }
             if d.unreadable != self.unreadable && !d.unreadable.is_empty() {
                 warn(&format!(
                     "the robot wrote {} in a form that cannot be read (Type {}, message ID \
@@ -886,8 +901,11 @@ mod tests {
         assert!(is_status(&answer), "{answer:?}");
     }
 
+    /// The message ID pairs a request with its answer: a motion answer naming another
+    /// Command is the stop's answer, as the robot wrote it, and the frame after it, with the
+    /// same ID, answers nothing.
     #[test]
-    fn a_frame_of_another_motion_command_with_the_stops_id_is_no_answer() {
+    fn a_motion_answer_naming_another_command_is_the_stops_answer() {
         let addr = fake_robot(1, |ids| {
             let ack = |code, value| {
                 answer_frame(
@@ -916,12 +934,13 @@ mod tests {
             matches!(
                 answer,
                 Ok(Answer {
-                    response: Response::Motion(MotionCommandCode::ZeroVelocity, _),
+                    response: Response::Motion(MotionCommandCode::Forward, _),
                     ..
                 })
             ),
             "{answer:?}"
         );
+        assert!(conn.outstanding.is_empty(), "nothing outstanding");
     }
 
     #[test]

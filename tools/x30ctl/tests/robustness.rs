@@ -459,6 +459,27 @@ fn motion_answer_without_its_value_echo_is_read() {
         .stdout_has("lie down (Type 2 Command 15, no Value echoed): success (ErrorCode 0)");
 }
 
+/// A robot that names Command 1 in its motion answers has still answered: the message ID
+/// pairs them. The answer is shown as the robot wrote it, with a warning.
+#[test]
+fn a_motion_answer_naming_another_command_is_read_with_a_warning() {
+    let addr = fake_robot(|id| {
+        let ack = MotionAck {
+            value: Some(-1.0),
+            result: CommandResult::Success,
+        };
+        encode_response(id, &Response::Motion(MotionCommandCode::Forward, ack))
+    });
+    x30ctl_raw(&["--robot", &addr, "lie-down"])
+        .expect_code(0)
+        .stdout_has("(Type 2 Command 1, ")
+        .stdout_has("success (ErrorCode 0)")
+        .stderr_has(
+            "the robot answered Type 2 Command 15 naming Command 1 (message ID 0); taken as \
+             its answer",
+        );
+}
+
 #[test]
 fn answer_whose_reserved_header_bytes_are_set_is_read() {
     let addr = fake_robot(|id| {
