@@ -115,6 +115,11 @@ impl<'d> TcpTransport<'d> {
         tx_buffer: &'d mut [u8],
     ) -> Self {
         let mut socket = TcpSocket::new(stack, rx_buffer, tx_buffer);
+        // Each request goes out at once, in its own segment. With Nagle's algorithm (on by
+        // default in smoltcp) a stop written while an earlier request is still
+        // unacknowledged would wait for that acknowledgement, which a robot's TCP may delay
+        // by tens of milliseconds (Linux's delayed ACK) while it prepares its answer.
+        socket.set_nagle_enabled(false);
         socket.set_keep_alive(Some(KEEP_ALIVE));
         socket.set_timeout(Some(IDLE_TIMEOUT));
         Self {
