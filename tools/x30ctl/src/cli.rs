@@ -346,9 +346,12 @@ pub struct MoveArgs {
 }
 
 impl MoveArgs {
-    /// The Type 2 command to repeat (not yet validated).
+    /// The Type 2 command to repeat (not yet validated). `--speed -0` is 0: the robot gets
+    /// `0`, not a negative-looking `-0`.
     pub fn command(&self) -> MotionCommand {
-        let speed = self.speed.map_or(Speed::Default, Speed::Value);
+        let speed = self
+            .speed
+            .map_or(Speed::Default, |speed| Speed::Value(speed + 0.0));
         MotionCommand::Move(self.direction, speed)
     }
 }

@@ -514,6 +514,15 @@ fn move_speed_is_validated() {
     )
     .expect_code(2);
     assert!(sim.requests().is_empty());
+    // -0 is 0, sent as `0`.
+    x30ctl(
+        &sim,
+        &["move", "forward", "--speed", "-0", "--duration", "0.1"],
+    )
+    .expect_code(0);
+    let forward = requests_of(&sim, 2, Some(1));
+    let value = &forward[0].items.as_ref().expect("items")["Value"];
+    assert_eq!(value.to_string(), "0.0", "{value}");
 }
 
 #[test]
