@@ -611,9 +611,9 @@ impl<T: Transport> Connection<T> {
             // The message ID pairs them: a robot that echoes another Command (its template's
             // 1, say) has still answered, and taking it for silent would hold motion back
             // and drop the connection of a robot that answers everything.
-            if let Ok(decoded) = &decoded
+            if !request_error
+                && let Ok(decoded) = &decoded
                 && decoded.message.command() != request.command
-                && !request_error
                 && let Some(count) = count_one(&mut self.anomalies.other_command)
             {
                 warn!(

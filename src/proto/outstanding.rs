@@ -52,8 +52,7 @@ impl<T, const N: usize> Outstanding<T, N> {
 
     /// [`Outstanding::answer`] for a frame that answers the request with its ID only if
     /// `answers` holds for that request (the frame has its Type); a Type 0 answer answers it
-    /// regardless. `None`: the frame answers nothing, and the request
-    /// stays outstanding.
+    /// regardless. `None`: the frame answers nothing, and the request stays outstanding.
     pub fn answer_if(
         &mut self,
         message_id: u16,

@@ -496,9 +496,9 @@ impl Connection {
     /// turns up (`Some`: the answer, or the error it amounts to) or more bytes are needed.
     ///
     /// Which request a frame answers is decided by [`Outstanding::answer_if`]: the request
-    /// with the frame's message ID if the frame has its Type, or, for a
-    /// Type 0 answer whose ID matches none, the oldest outstanding request. Answers to
-    /// other outstanding requests are kept in `early`.
+    /// with the frame's message ID if the frame has its Type, or, for a Type 0 answer whose
+    /// ID matches none, the oldest outstanding request. Answers to other outstanding
+    /// requests are kept in `early`.
     fn next_answer(
         &mut self,
         message_id: u16,
