@@ -56,6 +56,24 @@ pub struct Anomalies {
     pub empty_frames: u32,
 }
 
+impl Anomalies {
+    /// Counts, and logs now and then, an answer to `request` that named Command `named`:
+    /// rare, so kept out of the receive loop's way.
+    #[cold]
+    fn count_other_command(&mut self, request: &Sent, named: i32) {
+        if let Some(count) = count_one(&mut self.other_command) {
+            warn!(
+                "the robot answered Type {} Command {} naming Command {}: taken as its answer \
+                 ({} so far)",
+                request.message_type.raw(),
+                request.command,
+                named,
+                count
+            );
+        }
+    }
+}
+
 /// How many requests may wait for their answers on one connection. A stop path writes
 /// without waiting, at most every 250 ms, and a request is given up on after about a
 /// second, so a handful is in flight at most; beyond this the oldest is given up on.
@@ -614,16 +632,9 @@ impl<T: Transport> Connection<T> {
             if !request_error
                 && let Ok(decoded) = &decoded
                 && decoded.message.command() != request.command
-                && let Some(count) = count_one(&mut self.anomalies.other_command)
             {
-                warn!(
-                    "the robot answered Type {} Command {} naming Command {}: taken as its \
-                     answer ({} so far)",
-                    request.message_type.raw(),
-                    request.command,
-                    decoded.message.command(),
-                    count
-                );
+                self.anomalies
+                    .count_other_command(&request, decoded.message.command());
             }
             self.timeouts_in_a_row = 0;
             self.motion_unanswered = false;
