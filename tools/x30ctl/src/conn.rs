@@ -19,7 +19,7 @@ use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 
-use x30_panel::proto::codes::MessageType;
+use x30_panel::proto::codes::{MessageType, MotionCommandCode};
 use x30_panel::proto::frame::{
     self, EncodeError, FrameDecoder, FrameError, HEADER_LEN, MessageIds, Reserved,
 };
@@ -573,7 +573,7 @@ impl Connection {
             "waiting for the answer to Type {}, message ID {awaited}",
             awaited_type.raw()
         );
-        let d = match decoded {
+        let mut d = match decoded {
             Ok(d) => d,
             Err(e) => {
                 if let Some((ty, _)) = self.outstanding.remove(id) {
@@ -631,15 +631,22 @@ impl Connection {
             })
         } else {
             // The message ID pairs them: another Command named in the answer is the robot's
-            // slip, told once, not a reason to wait on for an answer that will not come.
-            if d.message.command() != command && !self.warned_other_command {
-                self.warned_other_command = true;
-                warn(&format!(
-                    "the robot answered Type {} Command {command} naming Command {} (message \
-                     ID {id}); taken as its answer",
-                    ty.raw(),
-                    d.message.command()
-                ));
+            // slip, told once, not a reason to wait on for an answer that will not come. The
+            // answer is then shown as the request's (its ErrorCode and Value as written): a
+            // `lie-down` answered "Command 1" is not shown as a forward.
+            if let Response::Motion(code, ack) = d.message
+                && code.raw() != command
+            {
+                if !self.warned_other_command {
+                    self.warned_other_command = true;
+                    warn(&format!(
+                        "the robot answered Type {} Command {command} naming Command {} \
+                         (message ID {id}); taken as its answer",
+                        ty.raw(),
+                        code.raw()
+                    ));
+                }
+                d.message = Response::Motion(MotionCommandCode::from_raw(command), ack);
             }
             if d.unreadable != self.unreadable && !d.unreadable.is_empty() {
                 warn(&format!(
@@ -902,8 +909,8 @@ mod tests {
     }
 
     /// The message ID pairs a request with its answer: a motion answer naming another
-    /// Command is the stop's answer, as the robot wrote it, and the frame after it, with the
-    /// same ID, answers nothing.
+    /// Command is the stop's answer, shown as the stop's with the robot's ErrorCode and
+    /// Value, and the frame after it, with the same ID, answers nothing.
     #[test]
     fn a_motion_answer_naming_another_command_is_the_stops_answer() {
         let addr = fake_robot(1, |ids| {
@@ -934,7 +941,13 @@ mod tests {
             matches!(
                 answer,
                 Ok(Answer {
-                    response: Response::Motion(MotionCommandCode::Forward, _),
+                    response: Response::Motion(
+                        MotionCommandCode::ZeroVelocity,
+                        MotionAck {
+                            value: Some(0.3),
+                            result: CommandResult::Success
+                        }
+                    ),
                     ..
                 })
             ),

@@ -460,7 +460,8 @@ fn motion_answer_without_its_value_echo_is_read() {
 }
 
 /// A robot that names Command 1 in its motion answers has still answered: the message ID
-/// pairs them. The answer is shown as the robot wrote it, with a warning.
+/// pairs them. The answer is shown as the request's, with the robot's ErrorCode, and a
+/// warning.
 #[test]
 fn a_motion_answer_naming_another_command_is_read_with_a_warning() {
     let addr = fake_robot(|id| {
@@ -472,7 +473,7 @@ fn a_motion_answer_naming_another_command_is_read_with_a_warning() {
     });
     x30ctl_raw(&["--robot", &addr, "lie-down"])
         .expect_code(0)
-        .stdout_has("(Type 2 Command 1, ")
+        .stdout_has("lie down (Type 2 Command 15, ")
         .stdout_has("success (ErrorCode 0)")
         .stderr_has(
             "the robot answered Type 2 Command 15 naming Command 1 (message ID 0); taken as \
