@@ -134,3 +134,44 @@ fn events_carry_when_the_level_became_stable() {
     let release = d.sample(Button::Forward, false, at(2015)).unwrap();
     assert_eq!((release.pressed, release.at), (false, at(2015)));
 }
+
+/// A button pressed at power-up (stuck, or held through a reset) is no press: it acts only
+/// once released and pressed again. A stop button held at power-up is a press.
+#[test]
+fn at_power_up_a_held_button_acts_only_when_pressed_again_but_a_stop_at_once() {
+    let held = [Button::Forward, Button::Dock, Button::Estop, Button::Stop];
+    let d = &mut ButtonDebouncers::at_power_up(DEBOUNCE, Button::ALL.map(|b| held.contains(&b)));
+    assert_eq!(d.pending().collect::<Vec<_>>(), [], "nothing pending yet");
+    let pressed = |d: &mut ButtonDebouncers, button, level, ms| {
+        d.sample(button, level, at(ms)).map(|e| e.pressed)
+    };
+    for button in [Button::Forward, Button::Dock] {
+        assert_eq!(pressed(d, button, true, 0), None, "{button:?}");
+        assert_eq!(
+            pressed(d, button, true, 100),
+            None,
+            "{button:?} still held: no press"
+        );
+    }
+    for button in [Button::Estop, Button::Stop] {
+        assert_eq!(pressed(d, button, true, 0), None, "{button:?}");
+        assert_eq!(
+            pressed(d, button, true, 15),
+            Some(true),
+            "{button:?} held: a press"
+        );
+    }
+    // Released (which drives nothing), forward then presses as usual.
+    assert_eq!(pressed(d, Button::Forward, false, 200), None);
+    assert_eq!(pressed(d, Button::Forward, false, 215), Some(false));
+    assert_eq!(pressed(d, Button::Forward, true, 300), None);
+    assert_eq!(pressed(d, Button::Forward, true, 315), Some(true));
+    // A button released at power-up presses as usual.
+    assert_eq!(pressed(d, Button::Gait, true, 400), None);
+    assert_eq!(pressed(d, Button::Gait, true, 415), Some(true));
+    assert!(Button::ALL.iter().filter(|b| b.is_stop()).eq(&[
+        Button::Stop,
+        Button::Estop,
+        Button::Cancel
+    ]));
+}

@@ -99,6 +99,11 @@ impl Button {
         self.direction().is_some()
     }
 
+    /// Whether the button only ever stops the robot: `estop`, `stop` and `cancel`.
+    pub const fn is_stop(self) -> bool {
+        matches!(self, Self::Estop | Self::Stop | Self::Cancel)
+    }
+
     /// The button's position in [`Button::ALL`].
     pub const fn index(self) -> usize {
         self as usize
@@ -152,10 +157,16 @@ pub struct Debouncer {
 impl Debouncer {
     /// A debouncer for an input that starts released.
     pub const fn new(debounce: Duration) -> Self {
+        Self::starting(debounce, false)
+    }
+
+    /// A debouncer for an input whose level at the start is `pressed`: that level is
+    /// reported already, so it makes no event.
+    pub const fn starting(debounce: Duration, pressed: bool) -> Self {
         Self {
             debounce,
-            stable: false,
-            raw: false,
+            stable: pressed,
+            raw: pressed,
             since: Instant::MIN,
         }
     }
@@ -200,6 +211,20 @@ impl ButtonDebouncers {
         Self {
             pins: [Debouncer::new(debounce); BUTTON_COUNT],
         }
+    }
+
+    /// Debouncers for every button at power-up, given which are pressed then (indexed like
+    /// [`Button::ALL`]). A button already pressed counts as held from before, not as a
+    /// press: it acts only once released and pressed again, so a button stuck or held
+    /// through a reset never moves the robot at start-up. The stop buttons
+    /// ([`Button::is_stop`]) are the exception: they start released, so one held at
+    /// power-up is a press (an e-stop latches), as stopping is always safe.
+    pub fn at_power_up(debounce: Duration, pressed: [bool; BUTTON_COUNT]) -> Self {
+        let mut pins = [Debouncer::new(debounce); BUTTON_COUNT];
+        for ((button, pin), pressed) in Button::ALL.into_iter().zip(&mut pins).zip(pressed) {
+            *pin = Debouncer::starting(debounce, pressed && !button.is_stop());
+        }
+        Self { pins }
     }
 
     /// Takes a button's raw level at `now`; returns the debounced event if there is one.

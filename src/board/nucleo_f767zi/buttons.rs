@@ -45,19 +45,29 @@ pub async fn button_task(
     estop_wiring: EstopWiring,
     shared: &'static Shared,
 ) -> ! {
-    let mut debouncers = ButtonDebouncers::new(debounce);
+    let pressed = |button: Button, pin: &Input<'static>| {
+        let low = pin.is_low();
+        if button == Button::Estop {
+            estop_wiring.pressed(low)
+        } else {
+            low
+        }
+    };
+    let mut at_power_up = [false; BUTTON_COUNT];
+    for ((button, pin), level) in Button::ALL
+        .into_iter()
+        .zip(&buttons.pins)
+        .zip(&mut at_power_up)
+    {
+        *level = pressed(button, pin);
+    }
+    let mut debouncers = ButtonDebouncers::at_power_up(debounce, at_power_up);
     let mut ticker = Ticker::every(POLL_PERIOD);
     loop {
         shared.beat(Path::Buttons);
         let now = Instant::now();
         for (button, pin) in Button::ALL.into_iter().zip(&buttons.pins) {
-            let low = pin.is_low();
-            let pressed = if button == Button::Estop {
-                estop_wiring.pressed(low)
-            } else {
-                low
-            };
-            if let Some(event) = debouncers.sample(button, pressed, now) {
+            if let Some(event) = debouncers.sample(button, pressed(button, pin), now) {
                 debug!(
                     "button {} {}",
                     button.name(),
