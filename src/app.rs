@@ -12,7 +12,10 @@
 //!   [`REQUEST_TIMEOUT`](crate::client::REQUEST_TIMEOUT) (longer for a slow robot), holds
 //!   motion back while answers are overdue, and reconnects when the robot falls silent;
 //! - the **poll** loop asks for the robot's state on a connection of its own, one request
-//!   at a time, so a robot slow to answer polls never holds a command back;
+//!   at a time, so a robot slow to answer polls never holds a command back. A robot that
+//!   never serves that connection (one serving a single connection at a time, serving the
+//!   command connection) has the polls carried by the command loop instead, behind the
+//!   commands;
 //! - the **navigation** loop opens the navigation connection for each task, sends its 1003
 //!   unless the task was withdrawn meanwhile, and holds that connection open until the
 //!   answer, because the robot stops a task whose client disconnects (ErrorStatus 41802);
@@ -231,6 +234,7 @@ pub async fn run<T: Transport>(config: &Config, links: &mut Connections<T>, shar
         }),
         shared,
         clock: Cell::new(RobotClock::new()),
+        poll_route: Cell::new(PollRoute::Own),
         wake_commands: Signal::new(),
         wake_polls: Signal::new(),
         wake_tasks: Signal::new(),
@@ -267,6 +271,28 @@ struct Target {
     moves: u32,
 }
 
+/// Which connection carries the polls.
+///
+/// A robot that serves one connection at a time leaves the others unread in its backlog.
+/// When it serves the command connection, the polls would never be answered: the status
+/// never read, an e-stop never confirmed and repeated for ever. So a poll connection that
+/// goes silent without having been answered once hands its polls to the command loop, which
+/// writes them one at a time after the commands due, until the command connection closes.
+/// (When the robot serves the poll connection instead, the poll connection gives way to a
+/// stop: see [`Panel::stop_passed_over_by`].)
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PollRoute {
+    /// The poll connection carries them.
+    Own,
+    /// The command connection carries them.
+    Commands,
+    /// The poll connection again, after the command connection closed without answering
+    /// anything while it carried them (a robot silent on every connection): they move again
+    /// only once the command connection is answered, so that a silent robot does not have
+    /// its command connection given up on, and stops wait for a new one, over and over.
+    Returned,
+}
+
 /// What the loops share.
 struct App<'a> {
     /// The panel; borrowed only between awaits, never across one.
@@ -277,6 +303,8 @@ struct App<'a> {
     shared: &'a Shared,
     /// The robot's clock as the poll connection learns it, for the others' `Time`.
     clock: Cell<RobotClock>,
+    /// Which connection carries the polls.
+    poll_route: Cell<PollRoute>,
     /// Something for the command loop to send.
     wake_commands: Signal<NoopRawMutex, ()>,
     /// The poll schedule changed.
@@ -360,10 +388,11 @@ impl App<'_> {
     }
 
     /// The command connection: connect, write what is due, match answers, watch for
-    /// silence.
+    /// silence; and carry the polls when the poll connection is not served ([`PollRoute`]).
     async fn command_loop<T: Transport>(&self, conn: &mut Connection<T>) -> ! {
         let mut retry_at = Instant::now();
         let mut followed = 0;
+        let mut polls = CarriedPolls::default();
         loop {
             self.shared.beat(Path::Commands);
             if self
@@ -371,6 +400,12 @@ impl App<'_> {
                 .await
             {
                 retry_at = Instant::now();
+                self.hand_polls_back(&mut polls);
+                // Another robot: what this one served says nothing about it.
+                self.poll_route.set(PollRoute::Own);
+            }
+            if !conn.is_connected() {
+                self.hand_polls_back(&mut polls);
             }
             if !self
                 .ensure_connected(
@@ -385,6 +420,11 @@ impl App<'_> {
             }
             let now = Instant::now();
             while let Some((id, sent)) = conn.expire(now, conn.request_timeout()) {
+                if let Some(poll) = polls.take(id) {
+                    warn!("poll failed: {:?}", ClientError::Timeout);
+                    self.panel(|p| p.poll_failed(poll, now));
+                    continue;
+                }
                 warn!(
                     "no answer to Type {} Command {} (message {})",
                     sent.message_type.raw(),
@@ -404,14 +444,24 @@ impl App<'_> {
                 continue;
             }
             self.connection(ConnectionRole::Commands, state_of(health));
-            if !self.send_due(conn, health).await {
+            let carrying = self.poll_route.get() == PollRoute::Commands;
+            if carrying {
+                self.connection(ConnectionRole::Polls, state_of(health));
+            }
+            if !self.send_due(conn, health).await || !self.send_poll(conn, &mut polls).await {
                 retry_at = self.retry_at(conn.reconnect_delay(COMMANDS_STABLE_AFTER));
                 self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
             }
             self.panel(|p| p.commands_waiting(conn.waiting_since()));
+            let next_poll = if carrying && polls.in_flight.is_none() {
+                self.panel(|p| p.poll_deadline())
+            } else {
+                None
+            };
             let deadline = [
                 self.panel(|p| p.command_deadline()),
+                next_poll,
                 conn.expiry(conn.request_timeout()),
                 conn.health_deadline(now),
             ]
@@ -426,8 +476,22 @@ impl App<'_> {
             .await
             {
                 Either3::First(Ok(answer)) => {
-                    self.panel(|p| p.command_answered(answer.result.as_ref()));
-                    self.wake_leds.signal(());
+                    match self.poll_route.get() {
+                        PollRoute::Returned => self.poll_route.set(PollRoute::Own),
+                        PollRoute::Commands => polls.answered = true,
+                        PollRoute::Own => {}
+                    }
+                    match (polls.take(answer.message_id), answer.result) {
+                        (Some(_), Ok(response)) => self.polled(conn, &response),
+                        (Some(poll), Err(e)) => {
+                            warn!("poll failed: {:?}", e);
+                            self.panel(|p| p.poll_failed(poll, Instant::now()));
+                        }
+                        (None, result) => {
+                            self.panel(|p| p.command_answered(result.as_ref()));
+                            self.wake_leds.signal(());
+                        }
+                    }
                 }
                 Either3::First(Err(e)) => {
                     warn!("command connection lost: {:?}", e);
@@ -437,6 +501,51 @@ impl App<'_> {
                 Either3::Second(()) | Either3::Third(()) => {}
             }
         }
+    }
+
+    /// Writes the poll due now on the command connection, if it carries the polls and
+    /// none is in flight there; false if the connection was lost doing so.
+    async fn send_poll<T: Transport>(
+        &self,
+        conn: &mut Connection<T>,
+        polls: &mut CarriedPolls,
+    ) -> bool {
+        if self.poll_route.get() != PollRoute::Commands || polls.in_flight.is_some() {
+            return true;
+        }
+        let Some(poll) = self.panel(|p| p.next_poll(Instant::now())) else {
+            return true;
+        };
+        match conn.send(&poll).await {
+            Ok(id) => {
+                polls.in_flight = Some((id, poll.message_type()));
+                true
+            }
+            Err(_) => {
+                self.panel(|p| p.poll_lost(poll.message_type(), Instant::now()));
+                false
+            }
+        }
+    }
+
+    /// The command connection closed: a poll in flight on it is lost, and the polls it
+    /// carried go back to the poll connection ([`PollRoute`]).
+    fn hand_polls_back(&self, polls: &mut CarriedPolls) {
+        if let Some((_, poll)) = polls.in_flight.take() {
+            self.panel(|p| p.poll_lost(poll, Instant::now()));
+        }
+        if self.poll_route.get() != PollRoute::Commands {
+            return;
+        }
+        let route = if core::mem::take(&mut polls.answered) {
+            PollRoute::Own
+        } else {
+            PollRoute::Returned
+        };
+        warn!("the command connection closed: the polls go back to their own connection");
+        self.poll_route.set(route);
+        self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
+        self.wake_polls.signal(());
     }
 
     /// Writes every command due now; false if the connection was lost doing so.
@@ -508,6 +617,11 @@ impl App<'_> {
             {
                 retry_at = Instant::now();
             }
+            if self.poll_route.get() == PollRoute::Commands {
+                // Until the command connection closes.
+                select(self.wake_polls.wait(), Timer::after(IDLE)).await;
+                continue;
+            }
             giving_way &= self.panel(|p| p.stop_unanswered());
             if giving_way {
                 // Until the command connection is answered (or the stop is no longer due):
@@ -542,8 +656,18 @@ impl App<'_> {
                 }
                 Err(e) if e.connection_usable() => {
                     warn!("poll failed: {:?}", e);
-                    self.panel(|p| p.poll_failed(&poll, Instant::now()));
-                    if conn.health(Instant::now()) == Health::Silent {
+                    self.panel(|p| p.poll_failed(poll.message_type(), Instant::now()));
+                    if conn.health(Instant::now()) != Health::Silent {
+                        continue;
+                    }
+                    if !conn.answered() && self.poll_route.get() == PollRoute::Own {
+                        warn!(
+                            "the robot does not serve the poll connection: the command connection carries the polls"
+                        );
+                        conn.disconnect().await;
+                        self.poll_route.set(PollRoute::Commands);
+                        self.wake_commands.signal(());
+                    } else {
                         warn!("the robot stopped answering polls: reconnecting");
                         retry_at = self.retry_at(conn.give_up().await);
                         self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
@@ -551,7 +675,7 @@ impl App<'_> {
                 }
                 Err(e) => {
                     warn!("poll connection lost: {:?}", e);
-                    self.panel(|p| p.poll_lost(&poll, Instant::now()));
+                    self.panel(|p| p.poll_lost(poll.message_type(), Instant::now()));
                     retry_at = self.retry_at(conn.reconnect_delay(STABLE_AFTER));
                     self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
                 }
@@ -725,6 +849,25 @@ impl App<'_> {
         self.wake_polls.signal(());
         self.wake_tasks.signal(());
         self.wake_leds.signal(());
+    }
+}
+
+/// The polls the command connection carries ([`PollRoute::Commands`]).
+#[derive(Default)]
+struct CarriedPolls {
+    /// The message ID and Type of the poll written and not answered yet: one at a time.
+    in_flight: Option<(u16, MessageType)>,
+    /// Whether the robot answered anything on the command connection since the polls
+    /// moved there.
+    answered: bool,
+}
+
+impl CarriedPolls {
+    /// The Type of the poll in flight, if message `id` is it.
+    fn take(&mut self, id: u16) -> Option<MessageType> {
+        self.in_flight
+            .take_if(|(poll, _)| *poll == id)
+            .map(|(_, poll)| poll)
     }
 }
 

@@ -550,6 +550,60 @@ async fn an_estop_gets_the_connection_of_a_robot_that_serves_one_at_a_time() {
     );
 }
 
+/// A robot that serves one connection at a time, serving the command connection, never
+/// reads the poll connection: the command connection then carries the polls, so the status
+/// is read and an e-stop is confirmed (and stops repeating), and the e-stop still goes out
+/// at once. Without, no status is ever read and the e-stop repeats for ever.
+#[tokio::test(flavor = "current_thread")]
+async fn the_command_connection_carries_the_polls_of_a_robot_serving_only_it() {
+    let sim = simulator(1.0);
+    sim.update_faults(|f| f.one_at_a_time = true);
+    with_app(&sim, async |shared| {
+        let mut leds = Leds(None);
+        // The poll connection goes silent in about 3 s (two polls given up on).
+        assert!(
+            wait_for_log(&sim, 8000, |l| polls(l, 1002) >= 2).await,
+            "the status is polled"
+        );
+        assert_eq!(
+            leds.until(shared, 3000, |i| i.link == Led::On).await.link,
+            Led::On,
+            "the link LED shows the robot answering"
+        );
+        let pressed = sim.elapsed().as_secs_f64();
+        click(shared, Button::Estop).await;
+        let estop = wait_for_command(&sim, 2000, pressed, 13)
+            .await
+            .expect("the e-stop reaches the robot");
+        assert!(
+            estop - pressed < STOP_BOUND,
+            "the e-stop reached the robot {:.3} s after the button",
+            estop - pressed
+        );
+        sleep(3000).await;
+        let log = sim.requests();
+        let estops: Vec<&LogEntry> = log
+            .iter()
+            .filter(|e| e.t >= pressed && e.command == Some(13))
+            .collect();
+        let status_on = |conn| {
+            log.iter()
+                .any(|e| e.t > estop && e.conn == conn && e.message_type == Some(1002))
+        };
+        assert!(
+            status_on(estops[0].conn),
+            "the status is polled on the e-stop's connection"
+        );
+        // Confirmed by the next status (2 Hz): one e-stop, or a repeat or two meanwhile.
+        assert!(
+            estops.len() <= 3,
+            "{} e-stops in 3 s: confirmed, not repeated for ever",
+            estops.len()
+        );
+    })
+    .await;
+}
+
 /// Runs the application against the scripted robot at `addr`, whose log `log` times from
 /// `start`; presses e-stop once `before` is done, and runs on for `after_ms`. When the robot
 /// received each e-stop, in seconds after the press.

@@ -1,6 +1,7 @@
-//! What the application logs before it reconnects: the wait it keeps, which a pending stop
-//! shortens to `STOP_RETRY`, not the connection's backoff. In a test binary of its own,
-//! because the logger it reads is process-wide.
+//! What the application logs: the wait it keeps before it reconnects, which a pending stop
+//! shortens to `STOP_RETRY`, not the connection's backoff; and where its polls go. In a
+//! test binary of its own, because the logger it reads is process-wide, and one test at a
+//! time ([`SERIAL`]), so that each reads only its own lines.
 
 mod common;
 #[path = "common/steady.rs"]
@@ -18,6 +19,10 @@ use x30_panel::app::{self, Connections, STOP_RETRY, Shared};
 use x30_panel::client::{Backoff, Connection};
 use x30_panel::config::Config;
 use x30_panel::panel::{Button, ButtonEvent, NetworkState};
+use x30_sim::{Config as SimConfig, Faults, Simulator};
+
+/// Held by each test for its whole run.
+static SERIAL: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
 
 /// The waits before a connection attempt logged so far, in milliseconds.
 fn logged_waits() -> Vec<u64> {
@@ -45,6 +50,7 @@ async fn wait_for_waits(limit_ms: u64, condition: impl Fn(&[u64]) -> bool) -> bo
 
 #[tokio::test]
 async fn the_wait_logged_before_reconnecting_is_the_wait_kept_while_a_stop_is_pending() {
+    let _serial = SERIAL.lock().await;
     record_warnings();
     // A port nothing listens on: every connection is refused at once.
     let addr = TcpListener::bind("127.0.0.1:0")
@@ -94,4 +100,53 @@ async fn the_wait_logged_before_reconnecting_is_the_wait_kept_while_a_stop_is_pe
         }
     })
     .await;
+}
+
+/// A robot silent on every connection has its polls moved to the command connection once,
+/// when the poll connection goes silent never answered. Once the command connection is given
+/// up on without an answer too, they stay on their own: the connection that stops go on is
+/// not given up on again and again for them.
+#[tokio::test]
+async fn a_robot_silent_everywhere_has_its_polls_moved_to_the_command_connection_once() {
+    let _serial = SERIAL.lock().await;
+    record_warnings();
+    let moved = "the command connection carries the polls";
+    let before = warnings_with(moved).len();
+    let sim = Simulator::start(SimConfig {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        ..Default::default()
+    })
+    .expect("the simulator starts");
+    sim.set_faults(Faults {
+        mute: true,
+        ..Default::default()
+    });
+    let backoff = Backoff::new(Duration::from_millis(50), Duration::from_millis(400));
+    let mut links = Connections {
+        commands: Connection::new(TokioTransport::new(sim.addr()), backoff),
+        polls: Connection::new(TokioTransport::new(sim.addr()), backoff),
+        navigation: Connection::new(TokioTransport::new(sim.addr()), backoff),
+    };
+    let config = Config::default();
+    let shared = Shared::new();
+    shared.set_network(NetworkState::Up);
+    // Moved after about 3 s (two polls given up on), back about 2 s later; without the
+    // rule, moved again about 3 s after that, and so on.
+    steady(async {
+        tokio::select! {
+            _ = app::run(&config, &mut links, &shared) => unreachable!(),
+            () = tokio::time::sleep(StdDuration::from_secs(12)) => {}
+        }
+    })
+    .await;
+    assert_eq!(
+        warnings_with(moved).len() - before,
+        1,
+        "{:?}",
+        warnings_with("poll")
+    );
+    assert_eq!(
+        warnings_with("the polls go back to their own connection").len(),
+        1
+    );
 }

@@ -168,7 +168,7 @@ fn a_poll_lost_with_its_connection_goes_first_on_the_next() {
         m.connection(ConnectionState::Open, now);
         answered.extend(m.next_poll(now));
         if let Some(lost) = m.next_poll(now) {
-            m.poll_lost(&lost, now);
+            m.poll_lost(lost.message_type(), now);
         }
         m.connection(ConnectionState::Connecting, now + Duration::from_millis(10));
     }
@@ -270,7 +270,7 @@ fn a_poll_that_keeps_failing_is_asked_less_often_until_it_is_answered() {
     let mut asked = vec![0];
     for _ in 0..5 {
         let failed = at(*asked.last().unwrap());
-        m.poll_failed(&Request::Battery, failed);
+        m.poll_failed(MessageType::Battery, failed);
         asked.extend(next_time_asked(&mut m, failed, Request::Battery, 1000));
     }
     assert_eq!(asked, [0, 10_000, 30_000, 70_000, 130_000, 190_000]);
@@ -282,10 +282,10 @@ fn a_poll_that_keeps_failing_is_asked_less_often_until_it_is_answered() {
     );
     // The status never falls back: the LEDs and the e-stop's confirmation wait on it.
     let status_due = m.next_deadline().unwrap();
-    m.poll_failed(&Request::Status, at(190_000));
+    m.poll_failed(MessageType::Status, at(190_000));
     assert!(due(&mut m, status_due).contains(&Request::Status));
     // A new robot starts afresh.
-    m.poll_failed(&Request::Battery, at(195_000));
+    m.poll_failed(MessageType::Battery, at(195_000));
     m.connection(ConnectionState::Connecting, at(195_100));
     m.robot_moved();
     m.connection(ConnectionState::Open, at(196_000));
@@ -303,7 +303,7 @@ fn a_poll_lost_again_and_again_backs_off_and_the_status_is_asked_meanwhile() {
     assert_eq!(due(&mut m, at(0)), EVERY_POLL);
     // The robot hangs up whenever it is asked 1008 (every 10 s).
     let lose = |m: &mut Monitor, now: Instant| {
-        m.poll_lost(&Request::MotorTemperatures, now);
+        m.poll_lost(MessageType::MotorTemperatures, now);
         m.connection(ConnectionState::Connecting, now);
         m.connection(ConnectionState::Open, now + Duration::from_millis(100));
     };

@@ -255,6 +255,11 @@ impl<T: Transport> Connection<T> {
         self.waiting_since
     }
 
+    /// Whether the robot has answered on this connection since it opened.
+    pub fn answered(&self) -> bool {
+        self.answered
+    }
+
     /// The robot's clock as learned from this connection's answers.
     pub fn clock(&self) -> RobotClock {
         self.clock

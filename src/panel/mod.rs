@@ -30,6 +30,7 @@ use embassy_time::{Duration, Instant};
 
 use crate::client::{ANSWER_OVERDUE, ClientError, Health};
 use crate::config::Config;
+use crate::proto::codes::MessageType;
 use crate::proto::message::{NavResult, Request, Response};
 
 /// The next deadline of a periodic job that ran at `now` for the deadline `due`: one period
@@ -183,13 +184,13 @@ impl Panel {
     }
 
     /// A poll's connection was lost before its answer (see [`Monitor::poll_lost`]).
-    pub fn poll_lost(&mut self, request: &Request, now: Instant) {
-        self.monitor.poll_lost(request, now);
+    pub fn poll_lost(&mut self, poll: MessageType, now: Instant) {
+        self.monitor.poll_lost(poll, now);
     }
 
-    /// The poll `request` failed, its connection still open (see [`Monitor::poll_failed`]).
-    pub fn poll_failed(&mut self, request: &Request, now: Instant) {
-        self.monitor.poll_failed(request, now);
+    /// The poll of Type `poll` failed, its connection still open (see [`Monitor::poll_failed`]).
+    pub fn poll_failed(&mut self, poll: MessageType, now: Instant) {
+        self.monitor.poll_failed(poll, now);
     }
 
     /// The robot's address changed (see [`Monitor::robot_moved`]).

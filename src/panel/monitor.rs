@@ -161,15 +161,15 @@ impl Monitor {
         self.schedule_nav(now);
     }
 
-    /// The poll `request` went unanswered because its connection was lost: it goes first
+    /// The poll of Type `poll` went unanswered because its connection was lost: it goes first
     /// on the next connection. Otherwise a robot that hangs up after each answer would lose
     /// the same poll, the one after the status, every time.
     ///
     /// Lost again before any answer, a poll other than the status counts as failing
     /// ([`Monitor::poll_failed`]) instead: a robot that hangs up on a Type it does not know
     /// would otherwise be asked nothing else, each connection spent on that poll.
-    pub fn poll_lost(&mut self, request: &Request, now: Instant) {
-        if let Some(s) = self.scheduled(request) {
+    pub fn poll_lost(&mut self, poll: MessageType, now: Instant) {
+        if let Some(s) = self.scheduled(poll) {
             if s.failures == 0 || s.kind == Poll::Status {
                 s.failures = s.failures.saturating_add(1);
                 s.due = Some(now);
@@ -180,22 +180,21 @@ impl Monitor {
         }
     }
 
-    /// The poll `request` failed at `now` on a connection that stays open: no answer in
+    /// The poll of Type `poll` failed at `now` on a connection that stays open: no answer in
     /// time, or one that could not be read. A poll other than the status is then put back
     /// by twice its period, doubled again for each failure in a row, up to
     /// [`MAX_BACKOFF`]: a robot that does not answer a Type (an older
     /// `robot_server` without 1008, say) would otherwise hold the status back for the
     /// whole wait, again and again. The status keeps its period: it is what the LEDs and
     /// the e-stop's confirmation wait on.
-    pub fn poll_failed(&mut self, request: &Request, now: Instant) {
-        if let Some(s) = self.scheduled(request).filter(|s| s.kind != Poll::Status) {
+    pub fn poll_failed(&mut self, poll: MessageType, now: Instant) {
+        if let Some(s) = self.scheduled(poll).filter(|s| s.kind != Poll::Status) {
             s.fail(now);
         }
     }
 
-    /// The schedule of the poll `request`, if it is one and on.
-    fn scheduled(&mut self, request: &Request) -> Option<&mut Schedule> {
-        let message_type = request.message_type();
+    /// The schedule of the poll of Type `message_type`, if it is one and on.
+    fn scheduled(&mut self, message_type: MessageType) -> Option<&mut Schedule> {
         self.schedules
             .iter_mut()
             .find(|s| s.kind.message_type() == message_type && s.due.is_some())

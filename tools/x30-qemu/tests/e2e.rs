@@ -566,7 +566,8 @@ fn a_half_open_robot_gets_stops_at_once_and_the_panel_reconnects() {
 /// A robot that serves one connection at a time (a single-threaded robot_server), serving
 /// the polls' while the panel's command connection waits in its backlog: the poll connection
 /// gives way, and the e-stop reaches the robot within two seconds of the press, not when the
-/// poll connection happens to close.
+/// poll connection happens to close. The robot then serves the command connection, which
+/// carries the polls from then on: the status is read there, and confirms the e-stop.
 #[test]
 fn an_estop_gets_the_connection_of_a_robot_that_serves_one_at_a_time() {
     let Some(turn) = turn() else { return };
@@ -574,12 +575,13 @@ fn an_estop_gets_the_connection_of_a_robot_that_serves_one_at_a_time() {
     let mut panel = boot(&turn, &sim);
     sim.update_faults(|f| f.one_at_a_time = true);
     // Drop what is open until the robot serves a new poll connection: the panel reconnects
-    // both, and whichever came first is served, the other left waiting.
+    // both, and whichever came first is served, the other left waiting. (Were it the command
+    // connection, the polls would move there, but not before two of them wait 1.5 s each.)
     let mut polls_served = false;
     for _ in 0..3 {
         let old = sim.requests().iter().map(|e| e.conn).max().unwrap_or(0);
         sim.drop_connections();
-        polls_served = eventually(Duration::from_secs(4), || {
+        polls_served = eventually(Duration::from_millis(2500), || {
             sim.requests()
                 .iter()
                 .any(|e| e.conn > old && e.message_type == Some(1002))
@@ -604,6 +606,34 @@ fn an_estop_gets_the_connection_of_a_robot_that_serves_one_at_a_time() {
     assert!(
         estop < 2.0,
         "the e-stop reached the robot {estop:.3} s after the press\n{}",
+        log_text(&sim)
+    );
+    let estop_conn = sim
+        .requests()
+        .iter()
+        .find(|e| e.t >= pressed && e.command == Some(13))
+        .map(|e| e.conn);
+    let status_there = || {
+        sim.requests()
+            .iter()
+            .find(|e| e.t > pressed && Some(e.conn) == estop_conn && e.message_type == Some(1002))
+            .map(|e| e.t)
+    };
+    assert!(
+        eventually(Duration::from_secs(10), || status_there().is_some()),
+        "the status is never polled on the e-stop's connection\n{}",
+        log_text(&sim)
+    );
+    let status = status_there().unwrap();
+    sleep(Duration::from_secs(2));
+    let last_estop = motions(&sim, pressed)
+        .into_iter()
+        .filter(|(_, c)| *c == 13)
+        .map(|(t, _)| t)
+        .fold(0.0, f64::max);
+    assert!(
+        last_estop < status + 1.5,
+        "the e-stop repeated until {last_estop:.3} s, the status was polled at {status:.3} s\n{}",
         log_text(&sim)
     );
     panel.send("-estop");
