@@ -42,7 +42,9 @@ use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Instant, Timer, with_timeout};
 
-use crate::client::{ClientError, Connection, Health, RobotClock, STABLE_AFTER, Transport};
+use crate::client::{
+    ANSWER_OVERDUE, ClientError, Connection, Health, RobotClock, STABLE_AFTER, Transport,
+};
 use crate::config::{Cidr, Config, PollPeriods, RobotAddress};
 use crate::panel::indicators::{Faults, LinkState};
 use crate::panel::monitor::Stamped;
@@ -273,25 +275,38 @@ struct Target {
 
 /// Which connection carries the polls.
 ///
-/// A robot that serves one connection at a time leaves the others unread in its backlog.
-/// When it serves the command connection, the polls would never be answered: the status
-/// never read, an e-stop never confirmed and repeated for ever. So a poll connection that
-/// goes silent without having been answered once hands its polls to the command loop, which
-/// writes them one at a time after the commands due, until the command connection closes.
-/// (When the robot serves the poll connection instead, the poll connection gives way to a
-/// stop: see [`Panel::stop_passed_over_by`].)
+/// A robot that serves one connection at a time leaves the others unread in its backlog,
+/// and one that takes a limited number of clients closes the others at once. When it serves
+/// the command connection, the polls would never be answered: the status never read, an
+/// e-stop never confirmed and repeated for ever. So when [`UNSERVED_POLL_CONNECTIONS`] poll
+/// connections in a row go silent or are lost without answering a poll, while the command
+/// connection is open, the polls move to the command loop, which writes them one at a time
+/// after the commands due, until the command connection closes. (When the robot serves the
+/// poll connection instead, the poll connection gives way to a stop: see
+/// [`Panel::stop_passed_over_by`].)
+///
+/// A robot merely slow to answer polls looks the same from the poll connection, and one
+/// that answers each connection's requests in order would keep a stop written after a slow
+/// poll waiting behind it. So a carried poll that waits [`ANSWER_OVERDUE`] ends the carrying
+/// for good, and the command connection is reopened at once, leaving the slow answer
+/// behind: a stop waits at most that long, once.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum PollRoute {
     /// The poll connection carries them.
     Own,
     /// The command connection carries them.
     Commands,
-    /// The poll connection again, after the command connection closed without answering
-    /// anything while it carried them (a robot silent on every connection): they move again
-    /// only once the command connection is answered, so that a silent robot does not have
-    /// its command connection given up on, and stops wait for a new one, over and over.
-    Returned,
+    /// The poll connection, for good (until the robot's address changes): a poll carried
+    /// on the command connection waited [`ANSWER_OVERDUE`], or the command connection
+    /// closed without answering anything while it carried them (a robot silent everywhere).
+    Kept,
 }
+
+/// How many poll connections in a row must end (silent or lost) without answering a poll
+/// before the polls move to the command connection ([`PollRoute`]). Two: the second waits
+/// twice as long for answers as the first, 3 s, so a robot merely slow at polls is mostly
+/// found answering.
+const UNSERVED_POLL_CONNECTIONS: u8 = 2;
 
 /// What the loops share.
 struct App<'a> {
@@ -393,6 +408,12 @@ impl App<'_> {
         let mut retry_at = Instant::now();
         let mut followed = 0;
         let mut polls = CarriedPolls::default();
+        // Since when the open connection's oldest request has waited, and since when one
+        // waited on connections closed before any answer: a robot that closes every new
+        // command connection unanswered (one that takes a limited number of clients, serving
+        // the polls') would otherwise look as if each new one had just begun to wait.
+        let mut waiting = None;
+        let mut lost_waiting = None;
         loop {
             self.shared.beat(Path::Commands);
             if self
@@ -401,11 +422,15 @@ impl App<'_> {
             {
                 retry_at = Instant::now();
                 self.hand_polls_back(&mut polls);
-                // Another robot: what this one served says nothing about it.
+                // Another robot: what this one served or left waiting says nothing about it.
                 self.poll_route.set(PollRoute::Own);
+                lost_waiting = None;
+                waiting = None;
             }
             if !conn.is_connected() {
                 self.hand_polls_back(&mut polls);
+                lost_waiting = earliest(lost_waiting, waiting.take());
+                self.panel(|p| p.commands_waiting(lost_waiting));
             }
             if !self
                 .ensure_connected(
@@ -419,12 +444,16 @@ impl App<'_> {
                 continue;
             }
             let now = Instant::now();
+            if let Some(late) = polls.overdue(now) {
+                self.keep_polls_apart(late, now);
+                // The robot may answer in order: a stop written now would wait behind the
+                // poll. A new connection leaves it behind.
+                conn.disconnect().await;
+                retry_at = now;
+                self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
+                continue;
+            }
             while let Some((id, sent)) = conn.expire(now, conn.request_timeout()) {
-                if let Some(poll) = polls.take(id) {
-                    warn!("poll failed: {:?}", ClientError::Timeout);
-                    self.panel(|p| p.poll_failed(poll, now));
-                    continue;
-                }
                 warn!(
                     "no answer to Type {} Command {} (message {})",
                     sent.message_type.raw(),
@@ -453,11 +482,12 @@ impl App<'_> {
                 self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
             }
-            self.panel(|p| p.commands_waiting(conn.waiting_since()));
-            let next_poll = if carrying && polls.in_flight.is_none() {
-                self.panel(|p| p.poll_deadline())
-            } else {
-                None
+            waiting = conn.waiting_since();
+            self.panel(|p| p.commands_waiting(earliest(lost_waiting, waiting)));
+            let next_poll = match polls.in_flight {
+                Some(carried) => Some(carried.sent.saturating_add(ANSWER_OVERDUE)),
+                None if carrying => self.panel(|p| p.poll_deadline()),
+                None => None,
             };
             let deadline = [
                 self.panel(|p| p.command_deadline()),
@@ -476,11 +506,8 @@ impl App<'_> {
             .await
             {
                 Either3::First(Ok(answer)) => {
-                    match self.poll_route.get() {
-                        PollRoute::Returned => self.poll_route.set(PollRoute::Own),
-                        PollRoute::Commands => polls.answered = true,
-                        PollRoute::Own => {}
-                    }
+                    lost_waiting = None;
+                    polls.answered |= self.poll_route.get() == PollRoute::Commands;
                     match (polls.take(answer.message_id), answer.result) {
                         (Some(_), Ok(response)) => self.polled(conn, &response),
                         (Some(poll), Err(e)) => {
@@ -518,7 +545,11 @@ impl App<'_> {
         };
         match conn.send(&poll).await {
             Ok(id) => {
-                polls.in_flight = Some((id, poll.message_type()));
+                polls.in_flight = Some(CarriedPoll {
+                    id,
+                    poll: poll.message_type(),
+                    sent: Instant::now(),
+                });
                 true
             }
             Err(_) => {
@@ -529,20 +560,35 @@ impl App<'_> {
     }
 
     /// The command connection closed: a poll in flight on it is lost, and the polls it
-    /// carried go back to the poll connection ([`PollRoute`]).
+    /// carried go back to the poll connection; for good if it answered nothing meanwhile
+    /// ([`PollRoute`]).
     fn hand_polls_back(&self, polls: &mut CarriedPolls) {
-        if let Some((_, poll)) = polls.in_flight.take() {
-            self.panel(|p| p.poll_lost(poll, Instant::now()));
+        if let Some(carried) = polls.in_flight.take() {
+            self.panel(|p| p.poll_lost(carried.poll, Instant::now()));
         }
         if self.poll_route.get() != PollRoute::Commands {
             return;
         }
-        let route = if core::mem::take(&mut polls.answered) {
+        warn!("the command connection closed: the polls go back to their own connection");
+        self.return_polls(if core::mem::take(&mut polls.answered) {
             PollRoute::Own
         } else {
-            PollRoute::Returned
-        };
-        warn!("the command connection closed: the polls go back to their own connection");
+            PollRoute::Kept
+        });
+    }
+
+    /// A poll carried on the command connection, of Type `late`, waited [`ANSWER_OVERDUE`]
+    /// at `now`: the polls go back to their own connection for good ([`PollRoute`]).
+    fn keep_polls_apart(&self, late: MessageType, now: Instant) {
+        warn!(
+            "a poll waits on the command connection: the polls go back to their own connection for good"
+        );
+        self.panel(|p| p.poll_failed(late, now));
+        self.return_polls(PollRoute::Kept);
+    }
+
+    /// Hands the polls back to the poll loop, which is to carry them from now on.
+    fn return_polls(&self, route: PollRoute) {
         self.poll_route.set(route);
         self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
         self.wake_polls.signal(());
@@ -610,6 +656,8 @@ impl App<'_> {
         let mut retry_at = Instant::now();
         let mut followed = 0;
         let mut giving_way = false;
+        // Poll connections in a row that ended without answering a poll.
+        let mut unserved = 0;
         loop {
             if self
                 .follow_robot(conn, ConnectionRole::Polls, &mut followed)
@@ -620,6 +668,7 @@ impl App<'_> {
             if self.poll_route.get() == PollRoute::Commands {
                 // Until the command connection closes.
                 select(self.wake_polls.wait(), Timer::after(IDLE)).await;
+                unserved = 0;
                 continue;
             }
             giving_way &= self.panel(|p| p.stop_unanswered());
@@ -644,6 +693,7 @@ impl App<'_> {
             let sent = Instant::now();
             match conn.request(&poll, Some(conn.request_timeout())).await {
                 Ok(response) => {
+                    unserved = 0;
                     self.polled(conn, &response);
                     if self.panel(|p| p.stop_passed_over_by(sent)) {
                         warn!(
@@ -660,13 +710,9 @@ impl App<'_> {
                     if conn.health(Instant::now()) != Health::Silent {
                         continue;
                     }
-                    if !conn.answered() && self.poll_route.get() == PollRoute::Own {
-                        warn!(
-                            "the robot does not serve the poll connection: the command connection carries the polls"
-                        );
+                    if self.polls_unserved(conn, &mut unserved) {
                         conn.disconnect().await;
-                        self.poll_route.set(PollRoute::Commands);
-                        self.wake_commands.signal(());
+                        self.move_polls();
                     } else {
                         warn!("the robot stopped answering polls: reconnecting");
                         retry_at = self.retry_at(conn.give_up().await);
@@ -676,11 +722,38 @@ impl App<'_> {
                 Err(e) => {
                     warn!("poll connection lost: {:?}", e);
                     self.panel(|p| p.poll_lost(poll.message_type(), Instant::now()));
-                    retry_at = self.retry_at(conn.reconnect_delay(STABLE_AFTER));
-                    self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
+                    if self.polls_unserved(conn, &mut unserved) {
+                        self.move_polls();
+                    } else {
+                        retry_at = self.retry_at(conn.reconnect_delay(STABLE_AFTER));
+                        self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
+                    }
                 }
             }
         }
+    }
+
+    /// Counts the poll connection `conn`, silent or lost, in `unserved` if it never
+    /// answered, and tells whether the polls should now move to the command connection
+    /// ([`PollRoute`]): [`UNSERVED_POLL_CONNECTIONS`] in a row, the command connection open.
+    fn polls_unserved<T: Transport>(&self, conn: &Connection<T>, unserved: &mut u8) -> bool {
+        *unserved = if conn.answered() {
+            0
+        } else {
+            unserved.saturating_add(1)
+        };
+        *unserved >= UNSERVED_POLL_CONNECTIONS
+            && self.poll_route.get() == PollRoute::Own
+            && self.panel(|p| p.commands_connected())
+    }
+
+    /// Moves the polls to the command connection, the poll connection closed.
+    fn move_polls(&self) {
+        warn!(
+            "the robot does not serve the poll connection: the command connection carries the polls"
+        );
+        self.poll_route.set(PollRoute::Commands);
+        self.wake_commands.signal(());
     }
 
     /// A poll's answer: into the panel, and the clock learned from it for the others.
@@ -852,22 +925,46 @@ impl App<'_> {
     }
 }
 
+/// The earlier of two moments, either of which may be missing.
+fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
+    a.into_iter().chain(b).min()
+}
+
 /// The polls the command connection carries ([`PollRoute::Commands`]).
 #[derive(Default)]
 struct CarriedPolls {
-    /// The message ID and Type of the poll written and not answered yet: one at a time.
-    in_flight: Option<(u16, MessageType)>,
+    /// The poll written and not answered yet: one at a time.
+    in_flight: Option<CarriedPoll>,
     /// Whether the robot answered anything on the command connection since the polls
     /// moved there.
     answered: bool,
+}
+
+/// A poll written on the command connection.
+#[derive(Clone, Copy)]
+struct CarriedPoll {
+    /// Its message ID.
+    id: u16,
+    /// Its Type.
+    poll: MessageType,
+    /// When it was written.
+    sent: Instant,
 }
 
 impl CarriedPolls {
     /// The Type of the poll in flight, if message `id` is it.
     fn take(&mut self, id: u16) -> Option<MessageType> {
         self.in_flight
-            .take_if(|(poll, _)| *poll == id)
-            .map(|(_, poll)| poll)
+            .take_if(|carried| carried.id == id)
+            .map(|carried| carried.poll)
+    }
+
+    /// The Type of the poll in flight if it has waited [`ANSWER_OVERDUE`] at `now`; it is
+    /// then no longer in flight.
+    fn overdue(&mut self, now: Instant) -> Option<MessageType> {
+        self.in_flight
+            .take_if(|carried| now.saturating_duration_since(carried.sent) >= ANSWER_OVERDUE)
+            .map(|carried| carried.poll)
     }
 }
 

@@ -15,8 +15,9 @@ mod terminal;
 
 use common::TokioTransport;
 use embassy_time::{Duration, Instant};
-use peer::{answer, read_request};
+use peer::{answer, read_request, read_request_within};
 use std::io::Write as _;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration as StdDuration;
 use x30_panel::app::{self, Connections, Path, STOP_RETRY, Shared};
@@ -482,43 +483,184 @@ fn robot_serving_one_connection_at_a_time(
     scripted_robot(start, |listener, recorder| {
         let mut state = MotionState::StandingUp;
         for (served, stream) in listener.incoming().take(100).enumerate() {
-            let Ok(mut stream) = stream else { return };
+            let Ok(stream) = stream else { return };
             if served == 0 {
                 continue;
             }
-            let mut decoder = FrameDecoder::new();
-            while let Some((id, request)) = read_request(&mut stream, &mut decoder) {
-                let response = match request {
-                    Request::Status => Response::Status(RobotStatus {
-                        motion_state: state,
-                        ..RobotStatus::UNAVAILABLE
-                    }),
-                    Request::Perception => Response::Perception(Perception {
-                        obs_state: ObsState::Clear,
-                    }),
-                    Request::Motion(command) => {
-                        if command == MotionCommand::SoftEmergencyStop {
-                            state = MotionState::SoftEmergencyStop;
-                        }
-                        Response::Motion(
-                            command.code(),
-                            MotionAck {
-                                value: None,
-                                result: CommandResult::Success,
-                            },
-                        )
-                    }
-                    _ => Response::RequestError(RequestError {
-                        code: RequestErrorCode::ParseFailed,
-                    }),
-                };
-                recorder.record(request);
-                if stream.write_all(&answer(id, &response)).is_err() {
-                    break;
-                }
-            }
+            serve_in_order(stream, &recorder, &mut state);
         }
     })
+}
+
+/// Answers the requests of `stream` as they come ([`scripted_answer`]) until it closes,
+/// or no request comes for 5 s; records each.
+fn serve_in_order(mut stream: std::net::TcpStream, recorder: &Recorder, state: &mut MotionState) {
+    let mut decoder = FrameDecoder::new();
+    while let Some((id, request)) = read_request(&mut stream, &mut decoder) {
+        let response = scripted_answer(&request, state);
+        recorder.record(request);
+        if stream.write_all(&answer(id, &response)).is_err() {
+            break;
+        }
+    }
+}
+
+/// A robot that takes one client at a time: a connection made while it serves one is
+/// closed at once, unread. It closes the first connection too, so that it serves the next,
+/// the polls', and every new command connection is closed while it does. Answers as
+/// [`scripted_answer`]; what it received, with the time.
+fn robot_taking_one_client_at_a_time(
+    start: std::time::Instant,
+) -> (std::net::SocketAddr, Received) {
+    scripted_robot(start, |listener, recorder| {
+        let busy = Arc::new(AtomicBool::new(false));
+        let state = Arc::new(Mutex::new(MotionState::StandingUp));
+        for (made, stream) in listener.incoming().take(1000).enumerate() {
+            let Ok(stream) = stream else { return };
+            if made == 0 || busy.swap(true, Ordering::SeqCst) {
+                continue;
+            }
+            let (busy, state, recorder) = (Arc::clone(&busy), Arc::clone(&state), recorder.clone());
+            std::thread::spawn(move || {
+                serve_in_order(stream, &recorder, &mut state.lock().unwrap());
+                busy.store(false, Ordering::SeqCst);
+            });
+        }
+    })
+}
+
+/// A scripted robot's answer to `request`: a status with `MotionState` `state` (6 once an
+/// e-stop came), a perception poll with the way clear, a Type 2 with success and anything
+/// else with a Type 0.
+fn scripted_answer(request: &Request, state: &mut MotionState) -> Response {
+    match *request {
+        Request::Status => Response::Status(RobotStatus {
+            motion_state: *state,
+            ..RobotStatus::UNAVAILABLE
+        }),
+        Request::Perception => Response::Perception(Perception {
+            obs_state: ObsState::Clear,
+        }),
+        Request::Motion(command) => {
+            if command == MotionCommand::SoftEmergencyStop {
+                *state = MotionState::SoftEmergencyStop;
+            }
+            Response::Motion(
+                command.code(),
+                MotionAck {
+                    value: None,
+                    result: CommandResult::Success,
+                },
+            )
+        }
+        _ => Response::RequestError(RequestError {
+            code: RequestErrorCode::ParseFailed,
+        }),
+    }
+}
+
+/// What a robot took up, connection by connection: when each connection opened (seconds
+/// from the start) and each request as the robot came to it, with the time.
+type TakenUp = Arc<Mutex<Vec<(f64, usize, Option<Request>)>>>;
+
+/// A robot that serves every connection, each on a thread of its own that takes one
+/// request at a time, as it is read, and answers it before reading the next, as a simple
+/// threaded server does; a status takes it 30 s, anything else no time. Answers as
+/// [`scripted_answer`]. Its address, and what it took up.
+fn robot_answering_in_order_with_a_slow_status(
+    start: std::time::Instant,
+) -> (std::net::SocketAddr, TakenUp) {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    let log = TakenUp::default();
+    let taken_up = log.clone();
+    std::thread::spawn(move || {
+        for (conn, stream) in listener.incoming().take(100).enumerate() {
+            let Ok(mut stream) = stream else { return };
+            let log = log.clone();
+            let record = move |request| {
+                let at = start.elapsed().as_secs_f64();
+                log.lock().unwrap().push((at, conn, request));
+            };
+            record(None);
+            std::thread::spawn(move || {
+                let mut state = MotionState::ForceControlStand;
+                let mut decoder = FrameDecoder::new();
+                let idle = StdDuration::from_secs(60);
+                while let Some((id, request)) = read_request_within(&mut stream, &mut decoder, idle)
+                {
+                    record(Some(request.clone()));
+                    if request == Request::Status {
+                        std::thread::sleep(StdDuration::from_secs(30));
+                    }
+                    let response = scripted_answer(&request, &mut state);
+                    if stream.write_all(&answer(id, &response)).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+    });
+    (addr, taken_up)
+}
+
+/// A robot slow to answer the status on every connection, and answering each connection's
+/// requests in order, looks from the poll connection like one that does not serve it: the
+/// polls move to the command connection. The first status there waits too: the polls go
+/// back for good and the command connection is reopened, so an e-stop pressed afterwards is
+/// not left waiting behind that status, and reaches the robot at once.
+#[tokio::test(flavor = "current_thread")]
+async fn a_stop_never_waits_behind_a_slow_status_carried_on_the_command_connection() {
+    let start = std::time::Instant::now();
+    let (addr, log) = robot_answering_in_order_with_a_slow_status(start);
+    // The command connection, open from the start, comes to its first request, the status,
+    // long after it opened; a poll connection comes to its status at once.
+    let carried = |log: &TakenUp| {
+        let log = log.lock().unwrap();
+        let opened = |conn| {
+            log.iter()
+                .find(|e| e.1 == conn && e.2.is_none())
+                .map(|e| e.0)
+        };
+        log.iter()
+            .find(|(t, conn, request)| {
+                *request == Some(Request::Status) && opened(*conn).is_some_and(|at| t - at > 5.0)
+            })
+            .map(|e| e.0)
+    };
+    let pressed = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        // Two poll connections find no answer (1.5 s, then 3 s waits): about 9.5 s.
+        for _ in 0..750 {
+            if carried(&log).is_some() {
+                break;
+            }
+            sleep(20).await;
+        }
+        // The status waits 0.5 s there: the command connection is reopened. (Without, it
+        // would be given up on as silent 2 s after the status, the e-stop waiting till then.)
+        sleep(700).await;
+        let pressed = start.elapsed().as_secs_f64();
+        click(shared, Button::Estop).await;
+        sleep(1000).await;
+        pressed
+    })
+    .await;
+    assert!(
+        carried(&log).is_some(),
+        "the status was never written on the command connection: {:?}",
+        log.lock().unwrap()
+    );
+    let estop = log
+        .lock()
+        .unwrap()
+        .iter()
+        .find(|e| e.0 >= pressed && e.2 == Some(Request::Motion(MotionCommand::SoftEmergencyStop)))
+        .map(|e| e.0 - pressed);
+    assert!(
+        estop.is_some_and(|after| after < STOP_BOUND),
+        "the e-stop reached the robot {estop:?} s after the press: {:?}",
+        log.lock().unwrap()
+    );
 }
 
 /// The stop path wins the robot's connection: with a robot that serves one connection at a
@@ -527,42 +669,37 @@ fn robot_serving_one_connection_at_a_time(
 /// the poll connection closes).
 #[tokio::test(flavor = "current_thread")]
 async fn an_estop_gets_the_connection_of_a_robot_that_serves_one_at_a_time() {
-    let start = std::time::Instant::now();
-    let (addr, log) = robot_serving_one_connection_at_a_time(start);
-    let status_read = |log: &[(f64, Request)]| log.iter().any(|(_, r)| *r == Request::Status);
-    let served_polls = async || {
-        for _ in 0..150 {
-            if status_read(&log.lock().unwrap()) {
-                break;
-            }
-            sleep(20).await;
-        }
-    };
-    let estops = estops_after_press(addr, start, &log, served_polls, 3000).await;
-    assert!(
-        status_read(&log.lock().unwrap()),
-        "the robot served the poll connection"
-    );
-    let estop = estops.first().copied();
-    assert!(
-        estop.is_some_and(|after| after < 2.0),
-        "the e-stop reached the robot {estop:?} s after the press"
-    );
+    estop_gets_the_connection_of(robot_serving_one_connection_at_a_time).await;
 }
 
-/// A robot that serves one connection at a time, serving the command connection, never
-/// reads the poll connection: the command connection then carries the polls, so the status
-/// is read and an e-stop is confirmed (and stops repeating), and the e-stop still goes out
-/// at once. Without, no status is ever read and the e-stop repeats for ever.
+/// A robot that serves one connection at a time, serving the command connection (which the
+/// panel opens first), never reads the poll connection: the command connection then carries
+/// the polls, so the status is read and an e-stop is confirmed (and stops repeating), and
+/// the e-stop still goes out at once. Without, no status is ever read and the e-stop
+/// repeats for ever.
 #[tokio::test(flavor = "current_thread")]
 async fn the_command_connection_carries_the_polls_of_a_robot_serving_only_it() {
+    polls_carried_for(|f| f.one_at_a_time = true).await;
+}
+
+/// As [`the_command_connection_carries_the_polls_of_a_robot_serving_only_it`], with a robot
+/// that closes every connection made while it serves one.
+#[tokio::test(flavor = "current_thread")]
+async fn the_command_connection_carries_the_polls_of_a_robot_taking_one_client() {
+    polls_carried_for(|f| f.max_connections = Some(1)).await;
+}
+
+/// Checks that a simulated robot with the faults `faults` has its status read on the
+/// command connection, and an e-stop confirmed there.
+async fn polls_carried_for(faults: impl FnOnce(&mut Faults)) {
     let sim = simulator(1.0);
-    sim.update_faults(|f| f.one_at_a_time = true);
+    sim.update_faults(faults);
     with_app(&sim, async |shared| {
         let mut leds = Leds(None);
-        // The poll connection goes silent in about 3 s (two polls given up on).
+        // Two poll connections go silent (the first in about 3 s, two polls given up on;
+        // the second, waiting twice as long, about 6 s later), or are closed at once.
         assert!(
-            wait_for_log(&sim, 8000, |l| polls(l, 1002) >= 2).await,
+            wait_for_log(&sim, 15_000, |l| polls(l, 1002) >= 2).await,
             "the status is polled"
         );
         assert_eq!(
@@ -602,6 +739,42 @@ async fn the_command_connection_carries_the_polls_of_a_robot_serving_only_it() {
         );
     })
     .await;
+}
+
+/// The stop path wins the connection of a robot that takes one client at a time, serving
+/// the polls' and closing every new command connection at once: the e-stop, written on each
+/// and read on none, has waited since the first, and the poll connection gives way.
+#[tokio::test(flavor = "current_thread")]
+async fn an_estop_gets_the_connection_of_a_robot_that_takes_one_client_at_a_time() {
+    estop_gets_the_connection_of(robot_taking_one_client_at_a_time).await;
+}
+
+/// Checks that an e-stop pressed while the scripted `robot` serves the poll connection
+/// reaches it within two seconds.
+async fn estop_gets_the_connection_of(
+    robot: fn(std::time::Instant) -> (std::net::SocketAddr, Received),
+) {
+    let start = std::time::Instant::now();
+    let (addr, log) = robot(start);
+    let status_read = |log: &[(f64, Request)]| log.iter().any(|(_, r)| *r == Request::Status);
+    let served_polls = async || {
+        for _ in 0..150 {
+            if status_read(&log.lock().unwrap()) {
+                break;
+            }
+            sleep(20).await;
+        }
+    };
+    let estops = estops_after_press(addr, start, &log, served_polls, 3000).await;
+    assert!(
+        status_read(&log.lock().unwrap()),
+        "the robot served the poll connection"
+    );
+    let estop = estops.first().copied();
+    assert!(
+        estop.is_some_and(|after| after < 2.0),
+        "the e-stop reached the robot {estop:?} s after the press"
+    );
 }
 
 /// Runs the application against the scripted robot at `addr`, whose log `log` times from

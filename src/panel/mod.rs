@@ -220,9 +220,15 @@ impl Panel {
         was != state
     }
 
-    /// Since when the command connection has waited for an answer (`None`: it does not).
+    /// Since when the command connection has waited for an answer (`None`: it does not),
+    /// counting connections closed before their answers came.
     pub fn commands_waiting(&mut self, since: Option<Instant>) {
         self.commands_waiting_since = since;
+    }
+
+    /// Whether the command connection is open.
+    pub fn commands_connected(&self) -> bool {
+        self.commands != ConnectionState::Connecting
     }
 
     /// Whether a stop still waits on the command connection.

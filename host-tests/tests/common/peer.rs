@@ -30,14 +30,22 @@ pub fn answer(id: u16, response: &Response) -> Vec<u8> {
     out
 }
 
-/// Reads one request frame from a peer socket: its ID and decoded request.
+/// Reads one request frame from a peer socket: its ID and decoded request; `None` when
+/// none comes within 5 s.
 pub fn read_request(
     stream: &mut TcpStream,
     decoder: &mut FrameDecoder<8192>,
 ) -> Option<(u16, Request)> {
-    stream
-        .set_read_timeout(Some(std::time::Duration::from_secs(5)))
-        .ok()?;
+    read_request_within(stream, decoder, std::time::Duration::from_secs(5))
+}
+
+/// [`read_request`], waiting up to `limit` for the request.
+pub fn read_request_within(
+    stream: &mut TcpStream,
+    decoder: &mut FrameDecoder<8192>,
+    limit: std::time::Duration,
+) -> Option<(u16, Request)> {
+    stream.set_read_timeout(Some(limit)).ok()?;
     loop {
         if let Some(Ok(f)) = decoder.decode() {
             return Some((f.message_id, Request::decode(f.asdu).ok()?.message));

@@ -620,7 +620,7 @@ fn an_estop_gets_the_connection_of_a_robot_that_serves_one_at_a_time() {
             .map(|e| e.t)
     };
     assert!(
-        eventually(Duration::from_secs(10), || status_there().is_some()),
+        eventually(Duration::from_secs(20), || status_there().is_some()),
         "the status is never polled on the e-stop's connection\n{}",
         log_text(&sim)
     );

@@ -77,6 +77,10 @@ pub struct Faults {
     /// are taken in the order they came once it closes. Connections already open when this
     /// is set stay open.
     pub one_at_a_time: bool,
+    /// Keep at most this many connections open: one made while that many are open is
+    /// closed at once, without a byte read, as by a `robot_server` that takes a limited
+    /// number of clients. `None`: no limit.
+    pub max_connections: Option<usize>,
     /// Answer nothing on a connection until this long after it opened: answers due sooner
     /// wait until then. A `robot_server` slow to set up each new client.
     pub warm_up: Duration,

@@ -43,6 +43,10 @@ struct Cli {
     /// connected but unread (a single-threaded robot_server).
     #[arg(long)]
     one_at_a_time: bool,
+    /// Keep at most N connections open: one made while N are open is closed at once,
+    /// unread (a robot_server that takes a limited number of clients).
+    #[arg(long, value_name = "N")]
+    max_connections: Option<usize>,
     /// Refuse the next N soft emergency stops (Command 13): ErrorCode 1, no state change.
     #[arg(long, value_name = "N", default_value_t = 0)]
     refuse_estops: u32,
@@ -182,6 +186,7 @@ impl Cli {
                 delay: Duration::from_millis(self.delay_ms),
                 type_delays: self.delay_types.clone(),
                 one_at_a_time: self.one_at_a_time,
+                max_connections: self.max_connections,
                 warm_up: Duration::from_millis(self.warm_up_ms),
                 mute: self.mute,
                 refuse_connections_until: self

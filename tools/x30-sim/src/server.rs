@@ -263,8 +263,13 @@ fn open_connection(shared: &Arc<Shared>, stream: TcpStream) -> io::Result<()> {
     };
     lock(&shared.conns).insert(conn, handle);
     // Looked at once registered: a refusal starting meanwhile either finds this connection
-    // to close, or is seen here. Returning drops (closes) every handle to the socket.
-    if shared.faults().refuses_connections(Instant::now()) {
+    // to close, or is seen here. Returning drops (closes) every handle to the socket. (The
+    // listener opens one connection at a time, so the count is this one's and those before.)
+    let faults = shared.faults();
+    let over_limit = faults
+        .max_connections
+        .is_some_and(|max| shared.connection_count() > max);
+    if faults.refuses_connections(Instant::now()) || over_limit {
         lock(&shared.conns).remove(&conn);
         return Ok(());
     }

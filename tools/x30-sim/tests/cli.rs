@@ -201,6 +201,34 @@ fn one_at_a_time() {
     assert!(second.recv_frame_within(ms(5000)).is_some());
 }
 
+/// `--max-connections 1`: a second connection is closed unread while the first is open,
+/// and a connection made after the first closed is served.
+#[test]
+fn max_connections() {
+    let (_running, addr) = spawn(&["--max-connections", "1"]);
+    let mut first = Client::connect(addr);
+    first.status();
+    let mut second = Client::connect(addr);
+    second.send(&Request::Battery);
+    assert!(second.recv_frame_within(ms(1000)).is_none());
+    first.status();
+    drop(first);
+    let mut third = None;
+    for _ in 0..50 {
+        std::thread::sleep(ms(20));
+        let mut client = Client::connect(addr);
+        client.send(&Request::Battery);
+        if client.recv_frame_within(ms(200)).is_some() {
+            third = Some(client);
+            break;
+        }
+    }
+    assert!(
+        third.is_some(),
+        "no connection served after the first closed"
+    );
+}
+
 #[test]
 fn unreachable_points_fail_tasks_with_41804() {
     let (_running, addr) = spawn(&[

@@ -462,14 +462,22 @@ fn refused_estops_fail_and_change_nothing() {
     assert_eq!(client.status().motion_state, MotionState::SoftEmergencyStop);
 }
 
-/// Serving one connection at a time, a second connection is accepted by the kernel but not
-/// read until the first closes; then its waiting request is answered.
+/// With at most one connection, a second is closed without a byte read while the first is
+/// open; the first is answered as before.
 #[test]
-fn one_at_a_time_leaves_the_next_connection_unread_until_the_open_one_closes() {
-    let sim = start_faulty(Faults {
-        one_at_a_time: true,
+fn max_connections_closes_the_connections_beyond_it_unread() {
+    let (sim, mut first, _) = second_connection_unread(Faults {
+        max_connections: Some(1),
         ..Faults::default()
     });
+    first.status();
+    assert_eq!(sim.connections(), 1);
+}
+
+/// A simulator with `faults`, a first connection answered, and a second whose status
+/// request, sent while the first is open, is neither read nor answered within 500 ms.
+fn second_connection_unread(faults: Faults) -> (x30_sim::Simulator, Client, Client) {
+    let sim = start_faulty(faults);
     let mut first = Client::connect(sim.addr());
     first.status();
     let mut second = Client::connect(sim.addr());
@@ -479,6 +487,17 @@ fn one_at_a_time_leaves_the_next_connection_unread_until_the_open_one_closes() {
         "the second connection is answered while the first is open"
     );
     assert_eq!(sim.requests().len(), 1, "the second request was read");
+    (sim, first, second)
+}
+
+/// Serving one connection at a time, a second connection is accepted by the kernel but not
+/// read until the first closes; then its waiting request is answered.
+#[test]
+fn one_at_a_time_leaves_the_next_connection_unread_until_the_open_one_closes() {
+    let (sim, first, mut second) = second_connection_unread(Faults {
+        one_at_a_time: true,
+        ..Faults::default()
+    });
     assert_eq!(sim.connections(), 1);
     drop(first);
     let (_, body) = next_body(&mut second);
