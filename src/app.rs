@@ -237,6 +237,8 @@ pub async fn run<T: Transport>(config: &Config, links: &mut Connections<T>, shar
         shared,
         clock: Cell::new(RobotClock::new()),
         poll_route: Cell::new(PollRoute::Own),
+        heard: [const { Cell::new(Heard::NEVER) }; 3],
+        displaced: Cell::new(0),
         wake_commands: Signal::new(),
         wake_polls: Signal::new(),
         wake_tasks: Signal::new(),
@@ -302,6 +304,16 @@ enum PollRoute {
     Kept,
 }
 
+/// How many of the panel's connections in a row the robot must close soon after another,
+/// newer one opened, for it to be taken as keeping only its newest connection: the polls then
+/// move to the command connection, which stays the only one open ([`PollRoute`]).
+const DISPLACED_CONNECTIONS: u8 = 2;
+
+/// How soon after a newer connection opened a connection's loss counts towards
+/// [`DISPLACED_CONNECTIONS`]. As long as a connection must last to count as stable: the poll
+/// connection, idle between polls, may notice its loss only at its next poll.
+const DISPLACED_WITHIN: Duration = STABLE_AFTER;
+
 /// How many poll connections in a row must end (silent or lost) without answering a poll
 /// before the polls move to the command connection ([`PollRoute`]). Two: the second waits
 /// twice as long for answers as the first, 3 s, so a robot merely slow at polls is mostly
@@ -320,6 +332,10 @@ struct App<'a> {
     clock: Cell<RobotClock>,
     /// Which connection carries the polls.
     poll_route: Cell<PollRoute>,
+    /// When each connection last opened, and was last heard from.
+    heard: [Cell<Heard>; 3],
+    /// Connections in a row the robot closed soon after a newer one opened.
+    displaced: Cell<u8>,
     /// Something for the command loop to send.
     wake_commands: Signal<NoopRawMutex, ()>,
     /// The poll schedule changed.
@@ -478,6 +494,7 @@ impl App<'_> {
                 self.connection(ConnectionRole::Polls, state_of(health));
             }
             if !self.send_due(conn, health).await || !self.send_poll(conn, &mut polls).await {
+                self.note_lost(ConnectionRole::Commands);
                 retry_at = self.retry_at(conn.reconnect_delay(COMMANDS_STABLE_AFTER));
                 self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
@@ -506,6 +523,7 @@ impl App<'_> {
             .await
             {
                 Either3::First(Ok(answer)) => {
+                    self.note_heard(ConnectionRole::Commands);
                     lost_waiting = None;
                     polls.answered |= self.poll_route.get() == PollRoute::Commands;
                     match (polls.take(answer.message_id), answer.result) {
@@ -522,6 +540,7 @@ impl App<'_> {
                 }
                 Either3::First(Err(e)) => {
                     warn!("command connection lost: {:?}", e);
+                    self.note_lost(ConnectionRole::Commands);
                     retry_at = self.retry_at(conn.reconnect_delay(COMMANDS_STABLE_AFTER));
                     self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 }
@@ -635,6 +654,7 @@ impl App<'_> {
             conn.set_clock(self.clock.get());
             match conn.connect().await {
                 Ok(()) => {
+                    self.note_opened(role);
                     self.connection(role, ConnectionState::Open);
                     return true;
                 }
@@ -666,7 +686,9 @@ impl App<'_> {
                 retry_at = Instant::now();
             }
             if self.poll_route.get() == PollRoute::Commands {
-                // Until the command connection closes.
+                // Until the command connection closes. (Moved by the command loop, this
+                // connection may still be open.)
+                conn.disconnect().await;
                 select(self.wake_polls.wait(), Timer::after(IDLE)).await;
                 unserved = 0;
                 continue;
@@ -693,6 +715,7 @@ impl App<'_> {
             let sent = Instant::now();
             match conn.request(&poll, Some(conn.request_timeout())).await {
                 Ok(response) => {
+                    self.note_heard(ConnectionRole::Polls);
                     unserved = 0;
                     self.polled(conn, &response);
                     if self.panel(|p| p.stop_passed_over_by(sent)) {
@@ -711,6 +734,9 @@ impl App<'_> {
                         continue;
                     }
                     if self.polls_unserved(conn, &mut unserved) {
+                        warn!(
+                            "the robot does not serve the poll connection: the command connection carries the polls"
+                        );
                         conn.disconnect().await;
                         self.move_polls();
                     } else {
@@ -722,9 +748,13 @@ impl App<'_> {
                 Err(e) => {
                     warn!("poll connection lost: {:?}", e);
                     self.panel(|p| p.poll_lost(poll.message_type(), Instant::now()));
+                    self.note_lost(ConnectionRole::Polls);
                     if self.polls_unserved(conn, &mut unserved) {
+                        warn!(
+                            "the robot does not serve the poll connection: the command connection carries the polls"
+                        );
                         self.move_polls();
-                    } else {
+                    } else if self.poll_route.get() != PollRoute::Commands {
                         retry_at = self.retry_at(conn.reconnect_delay(STABLE_AFTER));
                         self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
                     }
@@ -747,13 +777,67 @@ impl App<'_> {
             && self.panel(|p| p.commands_connected())
     }
 
-    /// Moves the polls to the command connection, the poll connection closed.
+    /// Moves the polls to the command connection; the poll loop closes its own.
     fn move_polls(&self) {
-        warn!(
-            "the robot does not serve the poll connection: the command connection carries the polls"
-        );
         self.poll_route.set(PollRoute::Commands);
         self.wake_commands.signal(());
+        self.wake_polls.signal(());
+    }
+
+    /// When `role`'s connection last opened, and was last heard from.
+    fn heard(&self, role: ConnectionRole) -> &Cell<Heard> {
+        let [commands, polls, navigation] = &self.heard;
+        match role {
+            ConnectionRole::Commands => commands,
+            ConnectionRole::Polls => polls,
+            ConnectionRole::Navigation => navigation,
+        }
+    }
+
+    /// Notes that `role`'s connection opened now.
+    fn note_opened(&self, role: ConnectionRole) {
+        let now = Some(Instant::now());
+        self.heard(role).set(Heard {
+            opened: now,
+            heard: now,
+        });
+    }
+
+    /// Notes that `role`'s connection was answered now.
+    fn note_heard(&self, role: ConnectionRole) {
+        let cell = self.heard(role);
+        cell.set(Heard {
+            heard: Some(Instant::now()),
+            ..cell.get()
+        });
+    }
+
+    /// Notes that `role`'s connection was lost. A robot that keeps only its newest
+    /// connection closes one of the panel's each time another opens, so that none lasts and
+    /// motion never gets through: after [`DISPLACED_CONNECTIONS`] in a row lost within
+    /// [`DISPLACED_WITHIN`] of another's opening, with nothing answered on the lost one
+    /// since, the polls move to the command connection ([`PollRoute`]), which then stays the
+    /// only one open but for a navigation task's. (A robot that hangs up after each answer
+    /// closes a connection right after answering on it: that does not count.)
+    fn note_lost(&self, role: ConnectionRole) {
+        let now = Instant::now();
+        let mine = self.heard(role).get().heard;
+        let displaced = self.heard.iter().map(|h| h.get().opened).any(|other| {
+            other > mine
+                && other.is_some_and(|at| now.saturating_duration_since(at) <= DISPLACED_WITHIN)
+        });
+        let in_a_row = if displaced {
+            self.displaced.get().saturating_add(1)
+        } else {
+            0
+        };
+        self.displaced.set(in_a_row);
+        if in_a_row >= DISPLACED_CONNECTIONS && self.poll_route.get() == PollRoute::Own {
+            warn!(
+                "the robot keeps only its newest connection: the command connection carries the polls"
+            );
+            self.move_polls();
+        }
     }
 
     /// A poll's answer: into the panel, and the clock learned from it for the others.
@@ -785,6 +869,7 @@ impl App<'_> {
                 self.task_ended(order.id, Err(&ClientError::NotConnected));
                 continue;
             }
+            self.note_opened(ConnectionRole::Navigation);
             // The connection may have taken a while: the task may be cancelled or stale.
             if !self.panel(|p| p.task_wanted(order.id, Instant::now())) {
                 info!("navigation task withdrawn before its 1003 went out");
@@ -923,6 +1008,23 @@ impl App<'_> {
         self.wake_tasks.signal(());
         self.wake_leds.signal(());
     }
+}
+
+/// When a connection last opened, and when it last opened or was answered.
+#[derive(Clone, Copy)]
+struct Heard {
+    /// When it last opened.
+    opened: Option<Instant>,
+    /// When it last opened or was answered.
+    heard: Option<Instant>,
+}
+
+impl Heard {
+    /// Never opened.
+    const NEVER: Self = Self {
+        opened: None,
+        heard: None,
+    };
 }
 
 /// The earlier of two moments, either of which may be missing.

@@ -741,6 +741,53 @@ async fn polls_carried_for(faults: impl FnOnce(&mut Faults)) {
     .await;
 }
 
+/// A robot that keeps only its newest connection closes one of the panel's each time
+/// another opens. After two such losses in a row the command connection carries the polls
+/// and stays the only one: held motion then goes out at its rate, the release stops it,
+/// and the status is read. Without, the connections take turns closing each other and the
+/// held forward never reaches the robot.
+#[tokio::test(flavor = "current_thread")]
+async fn a_robot_keeping_only_its_newest_connection_is_driven_on_one() {
+    let sim = simulator(1.0);
+    sim.update_faults(|f| f.newest_only = true);
+    with_app(&sim, async |shared| {
+        assert!(
+            wait_for_log(&sim, 5000, |l| polls(l, 1002) >= 2).await,
+            "the status is polled"
+        );
+        sleep(1000).await;
+        let connections = sim.requests().iter().map(|e| e.conn).max();
+        let pressed = sim.elapsed().as_secs_f64();
+        press(shared, Button::Forward, true).await;
+        sleep(2000).await;
+        let released = sim.elapsed().as_secs_f64();
+        press(shared, Button::Forward, false).await;
+        let zero = wait_for_command(&sim, 1000, released, 6).await;
+        sleep(1000).await;
+        let log = sim.requests();
+        let forward = motion(&log)
+            .into_iter()
+            .filter(|&(t, c)| c == 1 && (pressed..released).contains(&t))
+            .count();
+        assert!((6..=10).contains(&forward), "{forward} forwards in 2 s");
+        assert!(
+            zero.is_some_and(|t| t - released < STOP_BOUND),
+            "zero velocity {zero:?} after the release at {released:.3}"
+        );
+        assert_eq!(
+            log.iter().map(|e| e.conn).max(),
+            connections,
+            "no connection opened while driving"
+        );
+        assert!(
+            log.iter()
+                .any(|e| e.t > released && e.message_type == Some(1002)),
+            "the status is still polled"
+        );
+    })
+    .await;
+}
+
 /// The stop path wins the connection of a robot that takes one client at a time, serving
 /// the polls' and closing every new command connection at once: the e-stop, written on each
 /// and read on none, has waited since the first, and the poll connection gives way.

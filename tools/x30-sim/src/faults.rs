@@ -81,6 +81,9 @@ pub struct Faults {
     /// closed at once, without a byte read, as by a `robot_server` that takes a limited
     /// number of clients. `None`: no limit.
     pub max_connections: Option<usize>,
+    /// Keep only the newest connection: each new one closes every other, as by a
+    /// `robot_server` that serves one client and lets a new one replace it.
+    pub newest_only: bool,
     /// Answer nothing on a connection until this long after it opened: answers due sooner
     /// wait until then. A `robot_server` slow to set up each new client.
     pub warm_up: Duration,

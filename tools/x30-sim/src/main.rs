@@ -47,6 +47,10 @@ struct Cli {
     /// unread (a robot_server that takes a limited number of clients).
     #[arg(long, value_name = "N")]
     max_connections: Option<usize>,
+    /// Keep only the newest connection: each new one closes the others (a robot_server
+    /// that serves one client and lets a new one replace it).
+    #[arg(long)]
+    newest_only: bool,
     /// Refuse the next N soft emergency stops (Command 13): ErrorCode 1, no state change.
     #[arg(long, value_name = "N", default_value_t = 0)]
     refuse_estops: u32,
@@ -187,6 +191,7 @@ impl Cli {
                 type_delays: self.delay_types.clone(),
                 one_at_a_time: self.one_at_a_time,
                 max_connections: self.max_connections,
+                newest_only: self.newest_only,
                 warm_up: Duration::from_millis(self.warm_up_ms),
                 mute: self.mute,
                 refuse_connections_until: self

@@ -273,6 +273,11 @@ fn open_connection(shared: &Arc<Shared>, stream: TcpStream) -> io::Result<()> {
         lock(&shared.conns).remove(&conn);
         return Ok(());
     }
+    if faults.newest_only {
+        for (_, handle) in lock(&shared.conns).iter().filter(|(id, _)| **id != conn) {
+            let _ = handle.stream.shutdown(Shutdown::Both);
+        }
+    }
     let started = {
         let shared_w = Arc::clone(shared);
         let shared_r = Arc::clone(shared);

@@ -229,6 +229,18 @@ fn max_connections() {
     );
 }
 
+/// `--newest-only`: a new connection closes the one before.
+#[test]
+fn newest_only() {
+    let (_running, addr) = spawn(&["--newest-only"]);
+    let mut first = Client::connect(addr);
+    first.status();
+    let mut second = Client::connect(addr);
+    second.status();
+    first.send(&Request::Battery);
+    assert!(first.recv_frame_within(ms(1000)).is_none());
+}
+
 #[test]
 fn unreachable_points_fail_tasks_with_41804() {
     let (_running, addr) = spawn(&[

@@ -474,6 +474,26 @@ fn max_connections_closes_the_connections_beyond_it_unread() {
     assert_eq!(sim.connections(), 1);
 }
 
+/// Keeping only the newest connection, a new connection closes the one before, and is
+/// answered.
+#[test]
+fn newest_only_closes_the_connection_before_a_new_one() {
+    let sim = start_faulty(Faults {
+        newest_only: true,
+        ..Faults::default()
+    });
+    let mut first = Client::connect(sim.addr());
+    first.status();
+    let mut second = Client::connect(sim.addr());
+    second.status();
+    first.send(&Request::Status);
+    assert!(
+        first.recv_frame_within(ms(500)).is_none(),
+        "the first connection is answered after the second came"
+    );
+    assert_eq!(sim.connections(), 1);
+}
+
 /// A simulator with `faults`, a first connection answered, and a second whose status
 /// request, sent while the first is open, is neither read nor answered within 500 ms.
 fn second_connection_unread(faults: Faults) -> (x30_sim::Simulator, Client, Client) {
