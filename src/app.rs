@@ -285,7 +285,8 @@ struct Target {
 /// connection is open, the polls move to the command loop, which writes them one at a time
 /// after the commands due, until the command connection closes. (When the robot serves the
 /// poll connection instead, the poll connection gives way to a stop: see
-/// [`Panel::stop_passed_over_by`].)
+/// [`Panel::stop_passed_over_by`].) A robot that keeps only its newest connection has them
+/// moved too ([`App::note_lost`]).
 ///
 /// A robot merely slow to answer polls looks the same from the poll connection, and one
 /// that answers each connection's requests in order would keep a stop written after a slow
@@ -440,6 +441,7 @@ impl App<'_> {
                 self.hand_polls_back(&mut polls);
                 // Another robot: what this one served or left waiting says nothing about it.
                 self.poll_route.set(PollRoute::Own);
+                self.displaced.set(0);
                 lost_waiting = None;
                 waiting = None;
             }
@@ -463,8 +465,9 @@ impl App<'_> {
             if let Some(late) = polls.overdue(now) {
                 self.keep_polls_apart(late, now);
                 // The robot may answer in order: a stop written now would wait behind the
-                // poll. A new connection leaves it behind.
+                // poll. A new connection leaves it behind (and its wait: no command's).
                 conn.disconnect().await;
+                waiting = None;
                 retry_at = now;
                 self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
