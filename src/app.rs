@@ -13,9 +13,9 @@
 //!   motion back while answers are overdue, and reconnects when the robot falls silent;
 //! - the **poll** loop asks for the robot's state on a connection of its own, one request
 //!   at a time, so a robot slow to answer polls never holds a command back. A robot that
-//!   never serves that connection (one serving a single connection at a time, serving the
-//!   command connection) has the polls carried by the command loop instead, behind the
-//!   commands;
+//!   serves a single client (one at a time, serving the command connection; closing the
+//!   others; or keeping only the newest) has the polls carried by the command loop instead,
+//!   behind the commands;
 //! - the **navigation** loop opens the navigation connection for each task, sends its 1003
 //!   unless the task was withdrawn meanwhile, and holds that connection open until the
 //!   answer, because the robot stops a task whose client disconnects (ErrorStatus 41802);
