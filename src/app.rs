@@ -689,8 +689,8 @@ impl App<'_> {
                 retry_at = Instant::now();
             }
             if self.poll_route.get() == PollRoute::Commands {
-                // Until the command connection closes. (Moved by the command loop, this
-                // connection may still be open.)
+                // Until the command connection closes. This connection, which the polls
+                // left (from here, or moved by the command loop), closes first.
                 conn.disconnect().await;
                 select(self.wake_polls.wait(), Timer::after(IDLE)).await;
                 unserved = 0;
@@ -737,11 +737,7 @@ impl App<'_> {
                         continue;
                     }
                     if self.polls_unserved(conn, &mut unserved) {
-                        warn!(
-                            "the robot does not serve the poll connection: the command connection carries the polls"
-                        );
-                        conn.disconnect().await;
-                        self.move_polls();
+                        self.move_unserved_polls();
                     } else {
                         warn!("the robot stopped answering polls: reconnecting");
                         retry_at = self.retry_at(conn.give_up().await);
@@ -753,10 +749,7 @@ impl App<'_> {
                     self.panel(|p| p.poll_lost(poll.message_type(), Instant::now()));
                     self.note_lost(ConnectionRole::Polls);
                     if self.polls_unserved(conn, &mut unserved) {
-                        warn!(
-                            "the robot does not serve the poll connection: the command connection carries the polls"
-                        );
-                        self.move_polls();
+                        self.move_unserved_polls();
                     } else if self.poll_route.get() != PollRoute::Commands {
                         retry_at = self.retry_at(conn.reconnect_delay(STABLE_AFTER));
                         self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
@@ -778,6 +771,15 @@ impl App<'_> {
         *unserved >= UNSERVED_POLL_CONNECTIONS
             && self.poll_route.get() == PollRoute::Own
             && self.panel(|p| p.commands_connected())
+    }
+
+    /// Moves the polls to the command connection, the poll connection being unserved
+    /// ([`App::polls_unserved`]).
+    fn move_unserved_polls(&self) {
+        warn!(
+            "the robot does not serve the poll connection: the command connection carries the polls"
+        );
+        self.move_polls();
     }
 
     /// Moves the polls to the command connection; the poll loop closes its own.
