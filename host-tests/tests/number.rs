@@ -4,7 +4,7 @@
 use proptest::prelude::*;
 use x30_panel::proto::xml::number::{
     F32_TEXT_MAX, I32_TEXT_MAX, NumberError, parse_f32, parse_i64, parse_int, parse_int_prefix,
-    parse_non_finite, write_f32, write_i32, write_non_finite,
+    parse_non_finite, write_f32, write_i32, write_reading,
 };
 
 /// Our text for a finite float.
@@ -632,7 +632,8 @@ fn write_rejects_non_finite() {
 }
 
 /// C's words for NaN and infinity (answers only; `parse_f32` refuses them, above) read
-/// back as what they name, and `write_non_finite` writes what glibc's `printf` writes.
+/// back as what they name, and `write_reading` writes what glibc's `printf` writes for
+/// them, and a finite reading as `write_f32` does.
 #[test]
 fn non_finite_words_as_c_writes_them() {
     let bits = |x: Option<f32>| x.map(f32::to_bits);
@@ -675,9 +676,11 @@ fn non_finite_words_as_c_writes_them() {
         (-f32::NAN, "-nan"),
         (f32::INFINITY, "inf"),
         (f32::NEG_INFINITY, "-inf"),
-        (1.5, ""),
+        (1.5, "1.5"),
+        (-0.0, "-0"),
+        (f32::MAX, "340282350000000000000000000000000000000"),
     ] {
-        let n = write_non_finite(value, &mut out);
+        let n = write_reading(value, &mut out);
         assert_eq!(&out[..n], text.as_bytes(), "{value}");
     }
 }

@@ -434,7 +434,7 @@ impl NameFilter {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Writing {
     /// Each item by code of its own ([`AnswerItems::write_items`]), its kind and tags
-    /// constants there: the fastest, about 150 bytes of flash an item on the
+    /// constants there: the fastest, about 130 bytes of flash an item on the
     /// microcontroller. Not in a `compact` build.
     #[cfg(not(feature = "compact"))]
     Straight,
@@ -481,6 +481,22 @@ pub(crate) fn write_values(
         doc.number_item(name, number)?;
     }
     Ok(())
+}
+
+/// Writes an answer's present items from position `from` of its table on, through the
+/// table: where the buffer is too nearly full for an item's line to go in place, that line
+/// and the rest are appended piece by piece ([`AnswerItems::write_items`]).
+#[cfg(not(feature = "compact"))]
+#[inline(never)]
+pub(crate) fn write_from<S: ItemSet>(
+    doc: &mut DocumentWriter<'_>,
+    set: &S,
+    from: u32,
+) -> Result<(), WriteError> {
+    let mut values = [0; MAX_ITEMS];
+    let (table, present) = set.to_block(&mut values);
+    let from_on = Present::MAX.checked_shl(from).unwrap_or(0);
+    write_values(doc, table, &values, present & from_on, Sender::Robot)
 }
 
 /// A wire value of `kind` as the writer takes it from `sender`.
@@ -793,6 +809,9 @@ macro_rules! item_set {
                 doc: &mut $crate::proto::xml::writer::DocumentWriter<'_>,
             ) -> Result<(), $crate::proto::xml::writer::WriteError> {
                 use $crate::proto::message::items::ItemValue;
+                // Each field's position in the table, by name.
+                #[allow(non_camel_case_types)]
+                enum Position { $($field),* }
                 $(
                     if let Some(bits) = self.$field.to_raw() {
                         const NAME: $crate::proto::xml::writer::ItemName =
@@ -802,7 +821,7 @@ macro_rules! item_set {
                             { $wire.len() + 6 },
                             { $wire.len() + 4 },
                         > = &$crate::proto::xml::writer::ItemTags::new($wire);
-                        doc.tagged_item(
+                        let in_place = doc.item_in_place(
                             TAGS,
                             NAME,
                             $crate::proto::message::items::number(
@@ -811,6 +830,13 @@ macro_rules! item_set {
                                 $crate::proto::message::items::Sender::Robot,
                             ),
                         )?;
+                        if !in_place {
+                            return $crate::proto::message::items::write_from(
+                                doc,
+                                self,
+                                Position::$field as u32,
+                            );
+                        }
                     }
                 )*
                 Ok(())

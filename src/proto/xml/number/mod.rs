@@ -506,22 +506,20 @@ fn write_exact(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
     plain::render(value.is_sign_negative(), digits, exponent, len, out)
 }
 
-/// Writes a NaN or an infinity as C's `printf` does (`nan`, `-nan`, `inf`, `-inf`), for
-/// answers that report a reading the robot does not have; returns the length. A finite
-/// `value` writes nothing (0).
-// Out of line: one copy for both places a number item is written, off their usual path.
+/// Writes a float of an answer, which may report a reading the robot does not have: a
+/// finite `value` as [`write_f32`] does, a NaN or an infinity as C's `printf` does (`nan`,
+/// `-nan`, `inf`, `-inf`); returns the length. The bytes after the text may be overwritten.
+// Out of line: one call for every float item of an answer, the words off its usual path.
 #[inline(never)]
-pub fn write_non_finite(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
-    let word: &[u8] = match (
-        value.is_nan(),
-        value.is_infinite(),
-        value.is_sign_negative(),
-    ) {
-        (true, _, false) => b"nan",
-        (true, _, true) => b"-nan",
-        (_, true, false) => b"inf",
-        (_, true, true) => b"-inf",
-        _ => b"",
+pub fn write_reading(value: f32, out: &mut [u8; F32_TEXT_MAX]) -> usize {
+    if value.is_finite() {
+        return write_finite(value, out);
+    }
+    let word: &[u8] = match (value.is_nan(), value.is_sign_negative()) {
+        (true, false) => b"nan",
+        (true, true) => b"-nan",
+        (false, false) => b"inf",
+        (false, true) => b"-inf",
     };
     for (slot, &c) in out.iter_mut().zip(word) {
         *slot = c;

@@ -44,8 +44,8 @@ impl DocumentWriter<'_> {
     /// Writes the line of item `name` whose tags `tags` write in fixed-size pieces: tags
     /// known where the code is compiled ([`ItemTags`], one constant copy each), a table's
     /// padded name ([`PaddedName`], one copy of its window), or any name. Where the buffer
-    /// has room for the longest line, the line goes into a window of it checked once, the
-    /// number formatted in place between the tags; else it is appended piece by piece.
+    /// has room for the longest line, the line goes in place ([`DocumentWriter::item_in_place`]);
+    /// else it is appended piece by piece.
     #[inline(always)]
     pub(crate) fn tagged_item(
         &mut self,
@@ -53,13 +53,32 @@ impl DocumentWriter<'_> {
         name: ItemName,
         value: Number,
     ) -> Result<(), WriteError> {
+        if self.item_in_place(tags, name, value)? {
+            return Ok(());
+        }
+        self.formatted_line(name, value)
+    }
+
+    /// Writes the line of item `name` into a window of the buffer checked once, the number
+    /// formatted in place between the tags, if the buffer has room for the longest line;
+    /// returns whether it had. Without room only the `<Items>` block is opened, and the
+    /// caller writes the line (and any after it) piece by piece instead: an answer's own
+    /// code for each item leaves that to one call for the rest of its block, so that each
+    /// item costs one copy of the line, not two.
+    #[inline(always)]
+    pub(crate) fn item_in_place(
+        &mut self,
+        tags: impl Tags,
+        name: ItemName,
+        value: Number,
+    ) -> Result<bool, WriteError> {
         self.open_items()?;
         let Some(window) = self
             .buf
             .get_mut(self.len..)
             .and_then(|out| out.first_chunk_mut())
         else {
-            return self.formatted_line(name, value);
+            return Ok(false);
         };
         let start = tags.open(window);
         let text = window
@@ -71,7 +90,7 @@ impl DocumentWriter<'_> {
         };
         let end = start + n.min(NUMBER_MAX);
         self.len += end + tags.close(window, end);
-        Ok(())
+        Ok(true)
     }
 }
 

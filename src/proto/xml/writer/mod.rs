@@ -118,11 +118,9 @@ impl Number {
             Self::Int(value) => Ok(out
                 .first_chunk_mut::<I32_TEXT_MAX>()
                 .map_or(0, |out| number::write_i32(value, out))),
-            Self::Float(value) | Self::Reading(value) if value.is_finite() => {
-                Ok(number::write_finite(value, out))
-            }
-            Self::Reading(value) => Ok(number::write_non_finite(value, out)),
+            Self::Float(value) if value.is_finite() => Ok(number::write_finite(value, out)),
             Self::Float(_) => Err(WriteError::NotFinite { item }),
+            Self::Reading(value) => Ok(number::write_reading(value, out)),
         }
     }
 }
