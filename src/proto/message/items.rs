@@ -372,7 +372,9 @@ pub trait ItemSet: Sized {
 #[cfg(not(feature = "compact"))]
 pub trait AnswerItems: ItemSet {
     /// Writes the present items, each by code of its own in which its kind and tags are
-    /// constants: no table is read and nothing is converted to wire values first.
+    /// constants: no table is read and nothing is converted to wire values first. Where the
+    /// buffer is too nearly full for an item's line to go in place, that item and the rest
+    /// are written through the table ([`write_from`]).
     fn write_items(&self, doc: &mut DocumentWriter<'_>) -> Result<(), WriteError>;
 }
 
