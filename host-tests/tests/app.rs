@@ -165,6 +165,28 @@ async fn wait_for_command(sim: &Simulator, limit_ms: u64, since: f64, command: i
     found(&sim.requests())
 }
 
+/// Clicks the e-stop and waits up to `limit_ms` for its Command 13 to reach the robot,
+/// which must be within [`STOP_BOUND`] of the click; the click's and the arrival's times
+/// (simulator seconds). `what` names the case in the failures.
+async fn estop_reaches_the_robot(
+    sim: &Simulator,
+    shared: &Shared,
+    limit_ms: u64,
+    what: &str,
+) -> (f64, f64) {
+    let pressed = sim.elapsed().as_secs_f64();
+    click(shared, Button::Estop).await;
+    let estop = wait_for_command(sim, limit_ms, pressed, 13)
+        .await
+        .unwrap_or_else(|| panic!("{what}: the e-stop never reached the robot"));
+    assert!(
+        estop - pressed < STOP_BOUND,
+        "{what}: the e-stop reached the robot {:.3} s after the button",
+        estop - pressed
+    );
+    (pressed, estop)
+}
+
 /// Waits for the first request of `message_type` logged at or after `since`; its time.
 async fn wait_for_type(
     sim: &Simulator,
@@ -707,16 +729,8 @@ async fn polls_carried_for(faults: impl FnOnce(&mut Faults)) {
             Led::On,
             "the link LED shows the robot answering"
         );
-        let pressed = sim.elapsed().as_secs_f64();
-        click(shared, Button::Estop).await;
-        let estop = wait_for_command(&sim, 2000, pressed, 13)
-            .await
-            .expect("the e-stop reaches the robot");
-        assert!(
-            estop - pressed < STOP_BOUND,
-            "the e-stop reached the robot {:.3} s after the button",
-            estop - pressed
-        );
+        let (pressed, estop) =
+            estop_reaches_the_robot(&sim, shared, 2000, "commands carrying the polls").await;
         sleep(3000).await;
         let log = sim.requests();
         let estops: Vec<&LogEntry> = log
@@ -2004,16 +2018,7 @@ async fn a_robot_that_answers_late_is_read_and_confirms_an_estop() {
             assert!(read, "{name}: the status is read within 15 s");
             let newest = || sim.requests().iter().map(|e| e.conn).max();
             let connections = newest();
-            let pressed = sim.elapsed().as_secs_f64();
-            click(shared, Button::Estop).await;
-            let estop = wait_for_command(&sim, 1000, pressed, 13)
-                .await
-                .expect("the e-stop goes out");
-            assert!(
-                estop - pressed < STOP_BOUND,
-                "{name}: the e-stop reached the robot {:.3} s after the button",
-                estop - pressed
-            );
+            let (pressed, _) = estop_reaches_the_robot(&sim, shared, 1000, name).await;
             // Confirmed by a status 2.5 s late: the repeats end. (Unconfirmed, they go on
             // every 250 ms for as long as the robot is slow.)
             let mut quiet = false;
