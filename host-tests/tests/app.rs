@@ -30,7 +30,8 @@ use x30_panel::proto::codes::{
 };
 use x30_panel::proto::frame::FrameDecoder;
 use x30_panel::proto::message::{
-    MotionAck, MotionCommand, NavPoint, Perception, Request, RequestError, Response, RobotStatus,
+    Direction, MotionAck, MotionCommand, NavPoint, Perception, Request, RequestError, Response,
+    RobotStatus, Speed,
 };
 use x30_sim::{Config as SimConfig, Faults, LogEntry, Simulator};
 
@@ -551,6 +552,40 @@ fn robot_taking_one_client_at_a_time(
     })
 }
 
+/// A robot whose handler of one connection wedges, as if it had stopped reading just
+/// before the first zero velocity: it neither takes that up nor answers it, and reads no
+/// more there, the connection left open. It serves every other connection, each on a
+/// thread of its own, as [`scripted_answer`] says; what it took up, with the time.
+fn robot_wedging_before_the_first_zero_velocity(
+    start: std::time::Instant,
+) -> (std::net::SocketAddr, Received) {
+    scripted_robot(start, |listener, recorder| {
+        let wedged = Arc::new(AtomicBool::new(false));
+        for stream in listener.incoming().take(100) {
+            let Ok(mut stream) = stream else { return };
+            let (wedged, recorder) = (Arc::clone(&wedged), recorder.clone());
+            std::thread::spawn(move || {
+                let mut state = MotionState::StandingUp;
+                let mut decoder = FrameDecoder::new();
+                while let Some((id, request)) = read_request(&mut stream, &mut decoder) {
+                    if request == Request::Motion(MotionCommand::ZeroVelocity)
+                        && !wedged.swap(true, Ordering::SeqCst)
+                    {
+                        // Open and unread until the test is over.
+                        std::thread::sleep(StdDuration::from_secs(30));
+                        return;
+                    }
+                    let response = scripted_answer(&request, &mut state);
+                    recorder.record(request);
+                    if stream.write_all(&answer(id, &response)).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+    })
+}
+
 /// A scripted robot's answer to `request`: a status with `MotionState` `state` (6 once an
 /// e-stop came), a perception poll with the way clear, a Type 2 with success and anything
 /// else with a Type 0.
@@ -682,6 +717,52 @@ async fn a_stop_never_waits_behind_a_slow_status_carried_on_the_command_connecti
         estop.is_some_and(|after| after < STOP_BOUND),
         "the e-stop reached the robot {estop:?} s after the press: {:?}",
         log.lock().unwrap()
+    );
+}
+
+/// A robot that stops reading the command connection just before a release's zero
+/// velocity never gets it there. The panel gives the silent connection up and writes the
+/// zero velocity again, first thing on the next one, though the release was long taken;
+/// without, the robot never gets it.
+#[tokio::test(flavor = "current_thread")]
+async fn a_zero_velocity_a_wedged_robot_never_read_goes_out_again_on_the_next_connection() {
+    let start = std::time::Instant::now();
+    let (addr, log) = robot_wedging_before_the_first_zero_velocity(start);
+    let zero = Request::Motion(MotionCommand::ZeroVelocity);
+    let taken_up = |wanted: &Request| log.lock().unwrap().iter().any(|(_, r)| r == wanted);
+    let released = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        for _ in 0..150 {
+            if taken_up(&Request::Status) {
+                break;
+            }
+            sleep(20).await;
+        }
+        press(shared, Button::Forward, true).await;
+        sleep(600).await;
+        let released = start.elapsed().as_secs_f64();
+        press(shared, Button::Forward, false).await;
+        for _ in 0..150 {
+            if taken_up(&zero) {
+                break;
+            }
+            sleep(20).await;
+        }
+        released
+    })
+    .await;
+    let log = log.lock().unwrap();
+    let forward = Request::Motion(MotionCommand::Move(Direction::Forward, Speed::Default));
+    assert!(
+        log.iter().any(|(t, r)| *r == forward && *t < released),
+        "the robot drove: {log:?}"
+    );
+    let after = log
+        .iter()
+        .find(|(_, r)| *r == zero)
+        .map(|(t, _)| t - released);
+    assert!(
+        after.is_some_and(|after| after < 3.0),
+        "the zero velocity reached the robot {after:?} s after the release: {log:?}"
     );
 }
 
@@ -1745,9 +1826,10 @@ async fn a_stop_pressed_while_waiting_to_reconnect_to_a_silent_robot_goes_out_at
             mute: true,
             ..Default::default()
         });
-        // Two commands the robot never answers: given up on after 1.5 s, the connection
-        // is silent and closed, well before the polls' (2 s of silence).
-        click(shared, Button::Forward).await;
+        // A command the robot never answers: given up on after 1.5 s, the connection is
+        // silent and closed, well before the polls' (2 s of silence). Not motion: the
+        // zero velocity of its release would go once more at once, on a new connection.
+        click(shared, Button::LieDown).await;
         let mut closed = false;
         for _ in 0..400 {
             sleep(10).await;

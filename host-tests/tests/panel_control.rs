@@ -3,7 +3,7 @@
 
 mod panel_support;
 
-use embassy_time::Duration;
+use embassy_time::{Duration, Instant};
 use panel_support::*;
 use x30_panel::client::Health;
 use x30_panel::config::{Config, DEFAULT_LIGHTS};
@@ -366,10 +366,49 @@ fn an_outage_while_idle_sends_nothing() {
     c.press(Button::Forward, 0);
     c.release(Button::Forward, 0);
     assert_eq!(drain(&mut c, at(0)), [ZERO]);
+    c.command_answered(Outcome::Succeeded);
+    c.zero_velocity_answered();
     c.connection(ConnectionState::Connecting);
     c.connection(ConnectionState::Open);
     assert_eq!(drain(&mut c, at(600)), []);
     assert_eq!(c.next_deadline(), None);
+}
+
+#[test]
+fn a_zero_velocity_unanswered_when_the_connection_drops_goes_out_again_when_it_is_back() {
+    let mut c = connected();
+    c.press(Button::Forward, 0);
+    assert_eq!(drain(&mut c, at(0)), [FORWARD]);
+    c.release(Button::Forward, 100);
+    assert_eq!(drain(&mut c, at(100)), [ZERO]);
+    // A robot that stopped reading never got it; its answer never comes.
+    c.command_answered(Outcome::Failed);
+    c.connection(ConnectionState::Connecting);
+    assert!(run(&mut c, at(600), at(1000)).is_empty());
+    c.connection(ConnectionState::Open);
+    assert_eq!(c.next_deadline(), Some(Instant::MIN));
+    assert_eq!(drain(&mut c, at(1000)), [ZERO]);
+    // Once: a robot that never answers is not sent one on every connection.
+    c.connection(ConnectionState::Connecting);
+    c.connection(ConnectionState::Open);
+    assert_eq!(drain(&mut c, at(2000)), []);
+}
+
+#[test]
+fn an_unanswered_zero_velocity_is_not_sent_again_once_a_navigation_task_started() {
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Forward, 0);
+    assert_eq!(drain(&mut c, at(0)), [FORWARD]);
+    c.release(Button::Forward, 50);
+    assert_eq!(drain(&mut c, at(50)), [ZERO]);
+    c.press(Button::Dock, 100);
+    let order = c.take_task(at(100)).expect("the dock task");
+    c.task_started(order.id, at(100));
+    // Zero velocity would take the robot out of its task.
+    c.connection(ConnectionState::Connecting);
+    c.connection(ConnectionState::Open);
+    assert_eq!(drain(&mut c, at(600)), []);
+    assert!(c.task_running(order.id));
 }
 
 #[test]

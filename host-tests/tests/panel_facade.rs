@@ -17,6 +17,7 @@ use x30_panel::proto::message::*;
 const FORWARD: Request = Request::Motion(MotionCommand::Move(Direction::Forward, Speed::Default));
 const ESTOP: Request = Request::Motion(MotionCommand::SoftEmergencyStop);
 const LIE_DOWN: Request = Request::Motion(MotionCommand::LieDown);
+const ZERO: Request = Request::Motion(MotionCommand::ZeroVelocity);
 
 /// A panel with `config`, its network up and its command and poll connections open at 0.
 fn online_with(config: &Config) -> Panel {
@@ -141,15 +142,51 @@ fn a_command_connection_lost_while_moving_sends_zero_velocity_first_when_back() 
     );
     assert_eq!(p.command_deadline(), None);
     p.connection(ConnectionRole::Commands, ConnectionState::Open, at(1000));
-    assert_eq!(
-        commands(&mut p, at(1000)),
-        [Request::Motion(MotionCommand::ZeroVelocity)]
-    );
+    assert_eq!(commands(&mut p, at(1000)), [ZERO]);
     assert_eq!(
         commands(&mut p, at(1250)),
         [],
         "the held button needs a new press"
     );
+}
+
+#[test]
+fn only_the_robot_answering_the_zero_velocity_spares_it_a_second_one_after_an_outage() {
+    let answered = |code, result| {
+        Response::Motion(
+            code,
+            MotionAck {
+                value: Some(-1.0),
+                result,
+            },
+        )
+    };
+    let outage = |p: &mut Panel, ms: u64| {
+        p.connection(
+            ConnectionRole::Commands,
+            ConnectionState::Connecting,
+            at(ms),
+        );
+        p.connection(
+            ConnectionRole::Commands,
+            ConnectionState::Open,
+            at(ms + 500),
+        );
+        commands(p, at(ms + 500))
+    };
+    let mut p = online();
+    p.press(Button::Forward, 0);
+    assert_eq!(commands(&mut p, at(0)), [FORWARD]);
+    p.release(Button::Forward, 100);
+    assert_eq!(commands(&mut p, at(100)), [ZERO]);
+    // The answer to the motion before it says nothing about the zero velocity.
+    let forward = MotionCommandCode::Forward;
+    p.command_answered(Ok(&answered(forward, CommandResult::Success)));
+    assert_eq!(outage(&mut p, 200), [ZERO]);
+    // Refused or not, the robot read it.
+    let code = MotionCommandCode::ZeroVelocity;
+    p.command_answered(Ok(&answered(code, CommandResult::Failure)));
+    assert_eq!(outage(&mut p, 1000), []);
 }
 
 #[test]

@@ -20,8 +20,10 @@
 //!   held (the robot needs 3–5 Hz), and zero velocity when released; with several held the
 //!   latest press drives. Motion is not written while the robot's answers are overdue
 //!   (`motion_allowed`), so no backlog of repeats reaches a robot that wakes up. If the
-//!   command connection drops while motion is commanded, zero velocity goes out first when
-//!   it is back, and the held button needs a new press.
+//!   command connection drops while motion is commanded, or before the robot answered the
+//!   last zero velocity (a robot that stopped reading it never got it), zero velocity goes
+//!   out first when it is back (once, not on every connection to a robot that never
+//!   answers), and a held button needs a new press.
 //! - **Nothing stale.** A one-shot press (stop stepping, lie down, gait, light, cancel,
 //!   dock) that has not gone out within [`STALE_PRESS`] is dropped and the fault LED
 //!   blinks; it is never sent later. A navigation task cancelled or overridden before its
@@ -171,6 +173,18 @@ enum Task {
     },
 }
 
+/// Whether zero velocity is due, and why.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+enum ZeroVelocity {
+    /// Not due.
+    No,
+    /// A release or `stop` asks for it.
+    Asked,
+    /// Once more after an outage: motion was commanded, or the one asked for unanswered.
+    Again,
+}
+
 /// The e-stop latch.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -218,7 +232,10 @@ pub struct Control {
     /// The e-stop latch.
     estop: Estop,
     /// Whether zero velocity must go out.
-    zero_velocity: bool,
+    zero_velocity: ZeroVelocity,
+    /// Whether the last zero velocity asked for was written and is unanswered, and no
+    /// navigation task has started since (a zero velocity would take the robot out of it).
+    zero_velocity_unanswered: bool,
     /// A 1004 to send, with the press that asked for it.
     cancel: Option<Instant>,
     /// One-shot commands with their presses, oldest first.
@@ -267,7 +284,8 @@ impl Control {
                 left: false,
                 due: Instant::MIN,
             },
-            zero_velocity: false,
+            zero_velocity: ZeroVelocity::No,
+            zero_velocity_unanswered: false,
             cancel: None,
             one_shots: Deque::new(),
             task: Task::Idle,
@@ -304,7 +322,7 @@ impl Control {
         match button {
             Button::Stop => {
                 self.end_motion();
-                self.zero_velocity = true;
+                self.zero_velocity = ZeroVelocity::Asked;
                 self.end_task(at);
             }
             Button::Cancel => {
@@ -354,11 +372,18 @@ impl Control {
         if open {
             // A latched e-stop goes before anything else on the new connection.
             self.estop.due = Instant::MIN;
-        } else if self.next_repeat.is_some() {
-            // The release that should stop the robot may be lost with the connection. Zero
-            // velocity after the outage is no replayed press: stopping is always safe.
-            self.zero_velocity = true;
-            self.end_motion();
+        } else {
+            // The release that should stop the robot may be lost with the connection: never
+            // written while motion was commanded, or written to a robot that stopped reading
+            // (unanswered). Zero velocity after the outage is no replayed press: stopping is
+            // always safe. It goes once: a robot that never answers is not sent one on every
+            // connection.
+            let unanswered = core::mem::take(&mut self.zero_velocity_unanswered);
+            if self.next_repeat.is_some() || (unanswered && self.zero_velocity == ZeroVelocity::No)
+            {
+                self.zero_velocity = ZeroVelocity::Again;
+                self.end_motion();
+            }
         }
     }
 
@@ -400,7 +425,9 @@ impl Control {
             self.estop.due = now.saturating_add(ESTOP_REPEAT);
             return Some(Request::Motion(MotionCommand::SoftEmergencyStop));
         }
-        if core::mem::take(&mut self.zero_velocity) {
+        let zero_velocity = core::mem::replace(&mut self.zero_velocity, ZeroVelocity::No);
+        if zero_velocity != ZeroVelocity::No {
+            self.zero_velocity_unanswered = zero_velocity == ZeroVelocity::Asked;
             return Some(Request::Motion(MotionCommand::ZeroVelocity));
         }
         let pressed = self.cancel.take()?;
@@ -457,7 +484,10 @@ impl Control {
         if !self.connected {
             return None;
         }
-        if self.zero_velocity || self.cancel.is_some() || !self.one_shots.is_empty() {
+        if self.zero_velocity != ZeroVelocity::No
+            || self.cancel.is_some()
+            || !self.one_shots.is_empty()
+        {
             return Some(Instant::MIN);
         }
         let estop = self.estop.unconfirmed().then_some(self.estop.due);
@@ -467,6 +497,12 @@ impl Control {
     /// A command's answer came, or never did.
     pub fn command_answered(&mut self, outcome: Outcome) {
         self.last_failed = outcome == Outcome::Failed;
+    }
+
+    /// The robot answered a zero velocity (whether it succeeded or not, it read it): a
+    /// lost connection need not send it again.
+    pub fn zero_velocity_answered(&mut self) {
+        self.zero_velocity_unanswered = false;
     }
 
     /// The ordered navigation task, for the navigation connection to send; `None` without
@@ -518,6 +554,7 @@ impl Control {
     pub fn task_started(&mut self, id: u32, now: Instant) {
         if self.ordered(id) {
             self.task = Task::Running { id };
+            self.zero_velocity_unanswered = false;
         } else {
             warn!("navigation task withdrawn while its 1003 went out: cancelling it");
             self.cancel = Some(now);
@@ -582,7 +619,7 @@ impl Control {
 
     /// Whether a stop waits to go out: an unconfirmed e-stop, zero velocity or a cancel.
     pub fn stop_pending(&self) -> bool {
-        self.estop.unconfirmed() || self.zero_velocity || self.cancel.is_some()
+        self.estop.unconfirmed() || self.zero_velocity != ZeroVelocity::No || self.cancel.is_some()
     }
 
     /// Whether an e-stop is latched and not yet confirmed by the robot.
@@ -696,7 +733,7 @@ impl Control {
         }
         if self.held.is_empty() {
             self.next_repeat = None;
-            self.zero_velocity = true;
+            self.zero_velocity = ZeroVelocity::Asked;
         } else {
             self.next_repeat = Some(at);
         }

@@ -30,7 +30,7 @@ use embassy_time::{Duration, Instant};
 
 use crate::client::{ANSWER_OVERDUE, ClientError, Health};
 use crate::config::Config;
-use crate::proto::codes::MessageType;
+use crate::proto::codes::{MessageType, MotionCommandCode};
 use crate::proto::message::{NavResult, Request, Response};
 
 /// The next deadline of a periodic job that ran at `now` for the deadline `due`: one period
@@ -269,6 +269,9 @@ impl Panel {
             Ok(_) => {}
         }
         self.control.command_answered(outcome);
+        if let Ok(Response::Motion(MotionCommandCode::ZeroVelocity, _)) = answer {
+            self.control.zero_velocity_answered();
+        }
     }
 
     /// The next poll due at `now` on the poll connection.
