@@ -43,7 +43,7 @@ use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Instant, Timer, with_timeout};
 
 use crate::client::{
-    ANSWER_OVERDUE, ClientError, Connection, Health, RobotClock, STABLE_AFTER, Transport,
+    ANSWER_OVERDUE, ClientError, Connection, Health, RobotClock, STABLE_AFTER, Sent, Transport,
 };
 use crate::config::{Cidr, Config, PollPeriods, RobotAddress};
 use crate::panel::indicators::{Faults, LinkState};
@@ -51,7 +51,7 @@ use crate::panel::monitor::Stamped;
 use crate::panel::{
     Busy, ButtonEvent, ConnectionRole, ConnectionState, Indicators, NetworkState, Panel,
 };
-use crate::proto::codes::MessageType;
+use crate::proto::codes::{MessageType, MotionCommandCode};
 use crate::proto::message::{
     Battery, MotorTemperatures, NavResult, NavTaskState, Perception, Request, Response, RobotStatus,
 };
@@ -480,6 +480,19 @@ impl App<'_> {
                     id
                 );
                 self.panel(|p| p.command_answered(Err(&ClientError::Timeout)));
+            }
+            // A robot that answered on this connection but has sent nothing since a latched
+            // e-stop was written, 500 ms ago, no longer reads it (a handler that hung): the
+            // e-stop goes on a new one at once, first thing there, not after the seconds of
+            // silence that give a connection up. Once until the robot answers on the new one:
+            // a robot that reads nothing anywhere is not sent a connection every half second.
+            if self.panel(|p| p.estop_unconfirmed()) && conn.stopped_reading(now, is_estop) {
+                warn!("the robot has not read the e-stop for 500 ms: it goes on a new connection");
+                // Written long ago, or never to be: nothing to flush.
+                conn.disconnect().await;
+                retry_at = now;
+                self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
+                continue;
             }
             let health = conn.health(now);
             if health == Health::Silent {
@@ -1030,6 +1043,12 @@ impl Heard {
         opened: None,
         heard: None,
     };
+}
+
+/// Whether `sent` is a soft e-stop (Type 2, Command 13).
+fn is_estop(sent: &Sent) -> bool {
+    sent.message_type == MessageType::Motion
+        && sent.command == MotionCommandCode::SoftEmergencyStop.raw()
 }
 
 /// The earlier of two moments, either of which may be missing.

@@ -17,7 +17,7 @@ use common::TokioTransport;
 use embassy_time::{Duration, Instant};
 use peer::{answer, read_request, read_request_within};
 use std::io::Write as _;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration as StdDuration;
 use x30_panel::app::{self, Connections, Path, STOP_RETRY, Shared};
@@ -552,25 +552,29 @@ fn robot_taking_one_client_at_a_time(
     })
 }
 
-/// A robot whose handler of one connection wedges, as if it had stopped reading just
-/// before the first zero velocity: it neither takes that up nor answers it, and reads no
-/// more there, the connection left open. It serves every other connection, each on a
-/// thread of its own, as [`scripted_answer`] says; what it took up, with the time.
-fn robot_wedging_before_the_first_zero_velocity(
+/// A robot whose handler of a connection wedges, as if it had stopped reading just before
+/// the first request `wedge` there: it neither takes that up nor answers it, and reads no
+/// more there, the connection left open. On the first such connection only, or on `every`
+/// one. It serves the others, each on a thread of its own, as [`scripted_answer`] says.
+/// What it took up, with the time, and how many connections it accepted.
+fn robot_wedging_before(
     start: std::time::Instant,
-) -> (std::net::SocketAddr, Received) {
-    scripted_robot(start, |listener, recorder| {
+    wedge: Request,
+    every: bool,
+) -> (std::net::SocketAddr, Received, Arc<AtomicUsize>) {
+    let accepted = Arc::new(AtomicUsize::new(0));
+    let counted = Arc::clone(&accepted);
+    let (addr, log) = scripted_robot(start, move |listener, recorder| {
         let wedged = Arc::new(AtomicBool::new(false));
         for stream in listener.incoming().take(100) {
             let Ok(mut stream) = stream else { return };
-            let (wedged, recorder) = (Arc::clone(&wedged), recorder.clone());
+            counted.fetch_add(1, Ordering::SeqCst);
+            let (wedged, recorder, wedge) = (Arc::clone(&wedged), recorder.clone(), wedge.clone());
             std::thread::spawn(move || {
                 let mut state = MotionState::StandingUp;
                 let mut decoder = FrameDecoder::new();
                 while let Some((id, request)) = read_request(&mut stream, &mut decoder) {
-                    if request == Request::Motion(MotionCommand::ZeroVelocity)
-                        && !wedged.swap(true, Ordering::SeqCst)
-                    {
+                    if request == wedge && (!wedged.swap(true, Ordering::SeqCst) || every) {
                         // Open and unread until the test is over.
                         std::thread::sleep(StdDuration::from_secs(30));
                         return;
@@ -583,7 +587,8 @@ fn robot_wedging_before_the_first_zero_velocity(
                 }
             });
         }
-    })
+    });
+    (addr, log, accepted)
 }
 
 /// A scripted robot's answer to `request`: a status with `MotionState` `state` (6 once an
@@ -727,8 +732,8 @@ async fn a_stop_never_waits_behind_a_slow_status_carried_on_the_command_connecti
 #[tokio::test(flavor = "current_thread")]
 async fn a_zero_velocity_a_wedged_robot_never_read_goes_out_again_on_the_next_connection() {
     let start = std::time::Instant::now();
-    let (addr, log) = robot_wedging_before_the_first_zero_velocity(start);
     let zero = Request::Motion(MotionCommand::ZeroVelocity);
+    let (addr, log, _) = robot_wedging_before(start, zero.clone(), false);
     let taken_up = |wanted: &Request| log.lock().unwrap().iter().any(|(_, r)| r == wanted);
     let released = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
         for _ in 0..150 {
@@ -764,6 +769,80 @@ async fn a_zero_velocity_a_wedged_robot_never_read_goes_out_again_on_the_next_co
         after.is_some_and(|after| after < 3.0),
         "the zero velocity reached the robot {after:?} s after the release: {log:?}"
     );
+}
+
+/// Waits for the robot to take up a status, then clicks forward and waits for the robot to
+/// take up its zero velocity: the command connection has been answered on.
+async fn drive_briefly(shared: &Shared, taken_up: &impl Fn(&Request) -> bool) {
+    for _ in 0..150 {
+        if taken_up(&Request::Status) {
+            break;
+        }
+        sleep(20).await;
+    }
+    click(shared, Button::Forward).await;
+    for _ in 0..150 {
+        if taken_up(&Request::Motion(MotionCommand::ZeroVelocity)) {
+            break;
+        }
+        sleep(20).await;
+    }
+    sleep(100).await;
+}
+
+/// A robot that answered on the command connection, then stops reading it just before an
+/// e-stop (a handler that hung), gets the e-stop on a new connection half a second later,
+/// not after the seconds of silence that give a connection up (1.75 s without).
+#[tokio::test(flavor = "current_thread")]
+async fn an_estop_a_wedged_robot_never_read_goes_on_a_new_connection_at_once() {
+    let start = std::time::Instant::now();
+    let estop = Request::Motion(MotionCommand::SoftEmergencyStop);
+    let (addr, log, _) = robot_wedging_before(start, estop.clone(), false);
+    let taken_up = |wanted: &Request| log.lock().unwrap().iter().any(|(_, r)| r == wanted);
+    let pressed = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        drive_briefly(shared, &taken_up).await;
+        let pressed = start.elapsed().as_secs_f64();
+        press(shared, Button::Estop, true).await;
+        for _ in 0..150 {
+            if taken_up(&estop) {
+                break;
+            }
+            sleep(20).await;
+        }
+        pressed
+    })
+    .await;
+    let log = log.lock().unwrap();
+    let after = log
+        .iter()
+        .find(|(_, r)| *r == estop)
+        .map(|(t, _)| t - pressed);
+    assert!(
+        after.is_some_and(|after| after < 1.2),
+        "the e-stop reached the robot {after:?} s after the press: {log:?}"
+    );
+}
+
+/// A robot that stops reading every connection at its first e-stop gets one new connection
+/// for it half a second after the press, not one every half second: the new one, never
+/// answered on, waits for the seconds of silence, as any connection does.
+#[tokio::test(flavor = "current_thread")]
+async fn an_estop_goes_on_a_new_connection_once_until_the_robot_answers_again() {
+    let start = std::time::Instant::now();
+    let estop = Request::Motion(MotionCommand::SoftEmergencyStop);
+    let (addr, log, accepted) = robot_wedging_before(start, estop, true);
+    let taken_up = |wanted: &Request| log.lock().unwrap().iter().any(|(_, r)| r == wanted);
+    let opened = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        drive_briefly(shared, &taken_up).await;
+        let before = accepted.load(Ordering::SeqCst);
+        press(shared, Button::Estop, true).await;
+        // One move at 0.5 s; without the limit, more at 1 s and 1.5 s. The moved e-stop's
+        // connection falls silent at about 2.25 s.
+        sleep(1900).await;
+        accepted.load(Ordering::SeqCst) - before
+    })
+    .await;
+    assert_eq!(opened, 1, "connections opened after the press");
 }
 
 /// The stop path wins the robot's connection: with a robot that serves one connection at a

@@ -425,6 +425,27 @@ impl<T: Transport> Connection<T> {
         self.answered_up_to.is_some_and(|up_to| up_to > sent.at)
     }
 
+    /// Whether the robot, having answered on this connection, has sent nothing at all for
+    /// [`ANSWER_OVERDUE`] since the oldest outstanding request that `is` picks was written:
+    /// as far as that request can tell, it no longer reads the connection (a handler that
+    /// hung). The command loop asks it of a latched e-stop, which would otherwise wait the
+    /// seconds of [`SILENT_AFTER`] before it went out on a new connection. A connection
+    /// never answered on says nothing of the sort: a robot serving one connection at a time
+    /// leaves it unread in its backlog until the one it serves gives way.
+    pub fn stopped_reading(&self, now: Instant, is: impl Fn(&Sent) -> bool) -> bool {
+        let Some(sent) = self
+            .outstanding
+            .iter()
+            .map(|&(_, sent)| sent)
+            .find(|sent| is(sent))
+        else {
+            return false;
+        };
+        self.answered
+            && self.waiting_since.is_some_and(|since| since <= sent.at)
+            && now.saturating_duration_since(sent.at) >= ANSWER_OVERDUE
+    }
+
     /// Gives up on the oldest request if it has waited `limit` or longer at `now`, and
     /// returns it: its answer, if it comes, will be unsolicited.
     pub fn expire(&mut self, now: Instant, limit: Duration) -> Option<(u16, Sent)> {
