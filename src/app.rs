@@ -481,13 +481,14 @@ impl App<'_> {
                 );
                 self.panel(|p| p.command_answered(Err(&ClientError::Timeout)));
             }
-            // A robot that answered on this connection but has sent nothing since a latched
-            // e-stop was written, 500 ms ago, no longer reads it (a handler that hung): the
-            // e-stop goes on a new one at once, first thing there, not after the seconds of
-            // silence that give a connection up. Once until the robot answers on the new one:
-            // a robot that reads nothing anywhere is not sent a connection every half second.
-            if self.panel(|p| p.estop_unconfirmed()) && conn.stopped_reading(now, is_estop) {
-                warn!("the robot has not read the e-stop for 500 ms: it goes on a new connection");
+            // A robot that answered on this connection but has sent nothing since an e-stop
+            // or a zero velocity was written, 500 ms ago, no longer reads it (a handler that
+            // hung): the stop goes on a new one at once, first thing there (a latched e-stop,
+            // a zero velocity unanswered: `Control`), not after the seconds of silence that
+            // give a connection up. Once until the robot answers on the new one: a robot that
+            // reads nothing anywhere is not sent a connection every half second.
+            if conn.stopped_reading(now, is_stop) {
+                warn!("the robot has not read a stop for 500 ms: it goes on a new connection");
                 // Written long ago, or never to be: nothing to flush.
                 conn.disconnect().await;
                 retry_at = now;
@@ -1045,10 +1046,11 @@ impl Heard {
     };
 }
 
-/// Whether `sent` is a soft e-stop (Type 2, Command 13).
-fn is_estop(sent: &Sent) -> bool {
+/// Whether `sent` is a soft e-stop or a zero velocity (Type 2, Command 13 or 6).
+fn is_stop(sent: &Sent) -> bool {
+    use MotionCommandCode::{SoftEmergencyStop, ZeroVelocity};
     sent.message_type == MessageType::Motion
-        && sent.command == MotionCommandCode::SoftEmergencyStop.raw()
+        && (sent.command == SoftEmergencyStop.raw() || sent.command == ZeroVelocity.raw())
 }
 
 /// The earlier of two moments, either of which may be missing.

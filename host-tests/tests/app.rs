@@ -726,9 +726,10 @@ async fn a_stop_never_waits_behind_a_slow_status_carried_on_the_command_connecti
 }
 
 /// A robot that stops reading the command connection just before a release's zero
-/// velocity never gets it there. The panel gives the silent connection up and writes the
-/// zero velocity again, first thing on the next one, though the release was long taken;
-/// without, the robot never gets it.
+/// velocity never gets it there. Half a second later the panel leaves that connection and
+/// writes the zero velocity again, first thing on the next one, though the release was long
+/// taken; without, the robot never gets it (and not before the seconds of silence that give
+/// a connection up, 1.75 s, without the move).
 #[tokio::test(flavor = "current_thread")]
 async fn a_zero_velocity_a_wedged_robot_never_read_goes_out_again_on_the_next_connection() {
     let start = std::time::Instant::now();
@@ -766,7 +767,7 @@ async fn a_zero_velocity_a_wedged_robot_never_read_goes_out_again_on_the_next_co
         .find(|(_, r)| *r == zero)
         .map(|(t, _)| t - released);
     assert!(
-        after.is_some_and(|after| after < 3.0),
+        after.is_some_and(|after| after < 1.2),
         "the zero velocity reached the robot {after:?} s after the release: {log:?}"
     );
 }

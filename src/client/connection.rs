@@ -428,8 +428,8 @@ impl<T: Transport> Connection<T> {
     /// Whether the robot, having answered on this connection, has sent nothing at all for
     /// [`ANSWER_OVERDUE`] since the oldest outstanding request that `is` picks was written:
     /// as far as that request can tell, it no longer reads the connection (a handler that
-    /// hung). The command loop asks it of a latched e-stop, which would otherwise wait the
-    /// seconds of [`SILENT_AFTER`] before it went out on a new connection. A connection
+    /// hung). The command loop asks it of the stops, which would otherwise wait the seconds
+    /// of [`SILENT_AFTER`] before they went out again on a new connection. A connection
     /// never answered on says nothing of the sort: a robot serving one connection at a time
     /// leaves it unread in its backlog until the one it serves gives way.
     pub fn stopped_reading(&self, now: Instant, is: impl Fn(&Sent) -> bool) -> bool {

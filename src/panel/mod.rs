@@ -246,11 +246,6 @@ impl Panel {
             .is_some_and(|since| since.saturating_add(ANSWER_OVERDUE) <= sent)
     }
 
-    /// Whether an e-stop is latched and not yet confirmed by the robot.
-    pub fn estop_unconfirmed(&self) -> bool {
-        self.control.estop_unconfirmed()
-    }
-
     /// Since when a stop has waited on the command connection, if one does.
     fn stop_waiting_since(&self) -> Option<Instant> {
         self.commands_waiting_since
