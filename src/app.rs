@@ -487,7 +487,7 @@ impl App<'_> {
             // a zero velocity unanswered: `Control`), not after the seconds of silence that
             // give a connection up. Once until the robot answers on the new one: a robot that
             // reads nothing anywhere is not sent a connection every half second.
-            if conn.stopped_reading(now, is_stop) {
+            if conn.unread_from(is_stop).is_some_and(|from| from <= now) {
                 warn!("the robot has not read a stop for 500 ms: it goes on a new connection");
                 // Written long ago, or never to be: nothing to flush.
                 conn.disconnect().await;
@@ -528,6 +528,7 @@ impl App<'_> {
                 next_poll,
                 conn.expiry(conn.request_timeout()),
                 conn.health_deadline(now),
+                conn.unread_from(is_stop),
             ]
             .into_iter()
             .flatten()
