@@ -153,6 +153,18 @@ async fn wait_for_log(
     false
 }
 
+/// Waits until a scripted robot has taken up `wanted` (its log `log`), for at most
+/// `limit_ms`.
+async fn wait_taken_up(log: &Received, limit_ms: u64, wanted: &Request) -> bool {
+    for _ in 0..limit_ms / 20 {
+        if log.lock().unwrap().iter().any(|(_, r)| r == wanted) {
+            return true;
+        }
+        sleep(20).await;
+    }
+    false
+}
+
 /// Waits for the first Type 2 request with `command` logged at or after `since`
 /// (simulator seconds); its time.
 async fn wait_for_command(sim: &Simulator, limit_ms: u64, since: f64, command: i32) -> Option<f64> {
@@ -735,24 +747,13 @@ async fn a_zero_velocity_a_wedged_robot_never_read_goes_out_again_on_the_next_co
     let start = std::time::Instant::now();
     let zero = Request::Motion(MotionCommand::ZeroVelocity);
     let (addr, log, _) = robot_wedging_before(start, zero.clone(), false);
-    let taken_up = |wanted: &Request| log.lock().unwrap().iter().any(|(_, r)| r == wanted);
     let released = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
-        for _ in 0..150 {
-            if taken_up(&Request::Status) {
-                break;
-            }
-            sleep(20).await;
-        }
+        wait_taken_up(&log, 3000, &Request::Status).await;
         press(shared, Button::Forward, true).await;
         sleep(600).await;
         let released = start.elapsed().as_secs_f64();
         press(shared, Button::Forward, false).await;
-        for _ in 0..150 {
-            if taken_up(&zero) {
-                break;
-            }
-            sleep(20).await;
-        }
+        wait_taken_up(&log, 3000, &zero).await;
         released
     })
     .await;
@@ -772,22 +773,13 @@ async fn a_zero_velocity_a_wedged_robot_never_read_goes_out_again_on_the_next_co
     );
 }
 
-/// Waits for the robot to take up a status, then clicks forward and waits for the robot to
-/// take up its zero velocity: the command connection has been answered on.
-async fn drive_briefly(shared: &Shared, taken_up: &impl Fn(&Request) -> bool) {
-    for _ in 0..150 {
-        if taken_up(&Request::Status) {
-            break;
-        }
-        sleep(20).await;
-    }
+/// Waits for the scripted robot whose log is `log` to take up a status, then clicks forward
+/// and waits for it to take up the zero velocity: the command connection has been answered
+/// on.
+async fn drive_briefly(shared: &Shared, log: &Received) {
+    wait_taken_up(log, 3000, &Request::Status).await;
     click(shared, Button::Forward).await;
-    for _ in 0..150 {
-        if taken_up(&Request::Motion(MotionCommand::ZeroVelocity)) {
-            break;
-        }
-        sleep(20).await;
-    }
+    wait_taken_up(log, 3000, &Request::Motion(MotionCommand::ZeroVelocity)).await;
     sleep(100).await;
 }
 
@@ -799,17 +791,11 @@ async fn an_estop_a_wedged_robot_never_read_goes_on_a_new_connection_at_once() {
     let start = std::time::Instant::now();
     let estop = Request::Motion(MotionCommand::SoftEmergencyStop);
     let (addr, log, _) = robot_wedging_before(start, estop.clone(), false);
-    let taken_up = |wanted: &Request| log.lock().unwrap().iter().any(|(_, r)| r == wanted);
     let pressed = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
-        drive_briefly(shared, &taken_up).await;
+        drive_briefly(shared, &log).await;
         let pressed = start.elapsed().as_secs_f64();
         press(shared, Button::Estop, true).await;
-        for _ in 0..150 {
-            if taken_up(&estop) {
-                break;
-            }
-            sleep(20).await;
-        }
+        wait_taken_up(&log, 3000, &estop).await;
         pressed
     })
     .await;
@@ -832,9 +818,8 @@ async fn an_estop_goes_on_a_new_connection_once_until_the_robot_answers_again() 
     let start = std::time::Instant::now();
     let estop = Request::Motion(MotionCommand::SoftEmergencyStop);
     let (addr, log, accepted) = robot_wedging_before(start, estop, true);
-    let taken_up = |wanted: &Request| log.lock().unwrap().iter().any(|(_, r)| r == wanted);
     let opened = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
-        drive_briefly(shared, &taken_up).await;
+        drive_briefly(shared, &log).await;
         let before = accepted.load(Ordering::SeqCst);
         press(shared, Button::Estop, true).await;
         // One move at 0.5 s; without the limit, more at 1 s and 1.5 s. The moved e-stop's
@@ -980,12 +965,7 @@ async fn estop_gets_the_connection_of(
     let (addr, log) = robot(start);
     let status_read = |log: &[(f64, Request)]| log.iter().any(|(_, r)| *r == Request::Status);
     let served_polls = async || {
-        for _ in 0..150 {
-            if status_read(&log.lock().unwrap()) {
-                break;
-            }
-            sleep(20).await;
-        }
+        wait_taken_up(&log, 3000, &Request::Status).await;
     };
     let estops = estops_after_press(addr, start, &log, served_polls, 3000).await;
     assert!(
