@@ -173,16 +173,26 @@ enum Task {
     },
 }
 
-/// Whether zero velocity is due, and why.
+/// Where zero velocity stands: due (and why), or written and waiting for its answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 enum ZeroVelocity {
-    /// Not due.
+    /// Not due, and none waits for its answer.
     No,
-    /// A release or `stop` asks for it.
+    /// Due: a release or `stop` asks for it.
     Asked,
-    /// Once more after an outage: motion was commanded, or the one asked for unanswered.
+    /// Due once more after an outage: motion was commanded, or the one asked for unanswered.
     Again,
+    /// The one asked for was written and is unanswered, and no navigation task has started
+    /// since (a zero velocity would take the robot out of it): an outage makes it due again.
+    Unanswered,
+}
+
+impl ZeroVelocity {
+    /// Whether it must go out.
+    fn due(self) -> bool {
+        matches!(self, Self::Asked | Self::Again)
+    }
 }
 
 /// The e-stop latch.
@@ -231,11 +241,8 @@ pub struct Control {
     connected: bool,
     /// The e-stop latch.
     estop: Estop,
-    /// Whether zero velocity must go out.
+    /// Whether zero velocity must go out, or waits for its answer.
     zero_velocity: ZeroVelocity,
-    /// Whether the last zero velocity asked for was written and is unanswered, and no
-    /// navigation task has started since (a zero velocity would take the robot out of it).
-    zero_velocity_unanswered: bool,
     /// A 1004 to send, with the press that asked for it.
     cancel: Option<Instant>,
     /// One-shot commands with their presses, oldest first.
@@ -285,7 +292,6 @@ impl Control {
                 due: Instant::MIN,
             },
             zero_velocity: ZeroVelocity::No,
-            zero_velocity_unanswered: false,
             cancel: None,
             one_shots: Deque::new(),
             task: Task::Idle,
@@ -378,9 +384,7 @@ impl Control {
             // (unanswered). Zero velocity after the outage is no replayed press: stopping is
             // always safe. It goes once: a robot that never answers is not sent one on every
             // connection.
-            let unanswered = core::mem::take(&mut self.zero_velocity_unanswered);
-            if self.next_repeat.is_some() || (unanswered && self.zero_velocity == ZeroVelocity::No)
-            {
+            if self.next_repeat.is_some() || self.zero_velocity == ZeroVelocity::Unanswered {
                 self.zero_velocity = ZeroVelocity::Again;
                 self.end_motion();
             }
@@ -425,9 +429,13 @@ impl Control {
             self.estop.due = now.saturating_add(ESTOP_REPEAT);
             return Some(Request::Motion(MotionCommand::SoftEmergencyStop));
         }
-        let zero_velocity = core::mem::replace(&mut self.zero_velocity, ZeroVelocity::No);
-        if zero_velocity != ZeroVelocity::No {
-            self.zero_velocity_unanswered = zero_velocity == ZeroVelocity::Asked;
+        if self.zero_velocity.due() {
+            // Only the one asked for waits for its answer, not one sent again.
+            self.zero_velocity = if self.zero_velocity == ZeroVelocity::Asked {
+                ZeroVelocity::Unanswered
+            } else {
+                ZeroVelocity::No
+            };
             return Some(Request::Motion(MotionCommand::ZeroVelocity));
         }
         let pressed = self.cancel.take()?;
@@ -484,10 +492,7 @@ impl Control {
         if !self.connected {
             return None;
         }
-        if self.zero_velocity != ZeroVelocity::No
-            || self.cancel.is_some()
-            || !self.one_shots.is_empty()
-        {
+        if self.zero_velocity.due() || self.cancel.is_some() || !self.one_shots.is_empty() {
             return Some(Instant::MIN);
         }
         let estop = self.estop.unconfirmed().then_some(self.estop.due);
@@ -502,7 +507,14 @@ impl Control {
     /// The robot answered a zero velocity (whether it succeeded or not, it read it): a
     /// lost connection need not send it again.
     pub fn zero_velocity_answered(&mut self) {
-        self.zero_velocity_unanswered = false;
+        self.settle_zero_velocity();
+    }
+
+    /// A zero velocity waiting for its answer need no longer go again after an outage.
+    fn settle_zero_velocity(&mut self) {
+        if self.zero_velocity == ZeroVelocity::Unanswered {
+            self.zero_velocity = ZeroVelocity::No;
+        }
     }
 
     /// The ordered navigation task, for the navigation connection to send; `None` without
@@ -554,7 +566,7 @@ impl Control {
     pub fn task_started(&mut self, id: u32, now: Instant) {
         if self.ordered(id) {
             self.task = Task::Running { id };
-            self.zero_velocity_unanswered = false;
+            self.settle_zero_velocity();
         } else {
             warn!("navigation task withdrawn while its 1003 went out: cancelling it");
             self.cancel = Some(now);
@@ -619,7 +631,7 @@ impl Control {
 
     /// Whether a stop waits to go out: an unconfirmed e-stop, zero velocity or a cancel.
     pub fn stop_pending(&self) -> bool {
-        self.estop.unconfirmed() || self.zero_velocity != ZeroVelocity::No || self.cancel.is_some()
+        self.estop.unconfirmed() || self.zero_velocity.due() || self.cancel.is_some()
     }
 
     /// Whether an e-stop is latched and not yet confirmed by the robot.
