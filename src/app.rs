@@ -239,6 +239,7 @@ pub async fn run<T: Transport>(config: &Config, links: &mut Connections<T>, shar
         poll_route: Cell::new(PollRoute::Own),
         heard: [const { Cell::new(Heard::NEVER) }; 3],
         displaced: Cell::new(0),
+        polls_fell_silent: Cell::new(None),
         wake_commands: Signal::new(),
         wake_polls: Signal::new(),
         wake_tasks: Signal::new(),
@@ -337,6 +338,10 @@ struct App<'a> {
     heard: [Cell<Heard>; 3],
     /// Connections in a row the robot closed soon after a newer one opened.
     displaced: Cell<u8>,
+    /// When the poll connection, given up as silent after it had answered, was last
+    /// answered: the command loop reopens its connection if it has heard nothing since
+    /// (see [`App::command_loop`]).
+    polls_fell_silent: Cell<Option<Instant>>,
     /// Something for the command loop to send.
     wake_commands: Signal<NoopRawMutex, ()>,
     /// The poll schedule changed.
@@ -480,6 +485,22 @@ impl App<'_> {
                     id
                 );
                 self.panel(|p| p.command_answered(Err(&ClientError::Timeout)));
+            }
+            // The robot stopped answering the poll connection, which it had answered: a
+            // robot whose handlers hung may no longer read this one either. Reopened now if
+            // it has heard nothing since the polls' last answer, so that a stop goes on a
+            // connection the robot reads, not into this one until it is given up as silent
+            // (1.75 s): a latched e-stop or an unanswered zero velocity is the first thing on
+            // the new one. What else waited here is given up on; the robot answered nothing
+            // for seconds.
+            if let Some(since) = self.polls_fell_silent.take()
+                && self.heard(ConnectionRole::Commands).get().heard <= Some(since)
+            {
+                warn!("the robot stopped answering polls: the command connection reopens");
+                conn.disconnect().await;
+                retry_at = now;
+                self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
+                continue;
             }
             // A robot that answered on this connection but has sent nothing since an e-stop
             // or a zero velocity was written, 500 ms ago, no longer reads it (a handler that
@@ -755,6 +776,11 @@ impl App<'_> {
                         self.move_unserved_polls();
                     } else {
                         warn!("the robot stopped answering polls: reconnecting");
+                        if conn.answered() {
+                            self.polls_fell_silent
+                                .set(self.heard(ConnectionRole::Polls).get().heard);
+                            self.wake_commands.signal(());
+                        }
                         retry_at = self.retry_at(conn.give_up().await);
                         self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
                     }

@@ -564,15 +564,25 @@ fn robot_taking_one_client_at_a_time(
     })
 }
 
+/// When a scripted robot's handler of a connection wedges ([`robot_wedging`]).
+#[derive(Clone)]
+enum Wedge {
+    /// Just before the first request `.0` there: on the first such connection only, or on
+    /// every one (`.1`).
+    Before(Box<Request>, bool),
+    /// At the first request there this long after the start, on every connection accepted
+    /// before then: the robot's handlers hung all at once.
+    At(StdDuration),
+}
+
 /// A robot whose handler of a connection wedges, as if it had stopped reading just before
-/// the first request `wedge` there: it neither takes that up nor answers it, and reads no
-/// more there, the connection left open. On the first such connection only, or on `every`
-/// one. It serves the others, each on a thread of its own, as [`scripted_answer`] says.
-/// What it took up, with the time, and how many connections it accepted.
-fn robot_wedging_before(
+/// a request, when `wedge` says: it neither takes that request up nor answers it, and reads
+/// no more there, the connection left open. It serves the others, each on a thread of its
+/// own, as [`scripted_answer`] says. What it took up, with the time, and how many
+/// connections it accepted.
+fn robot_wedging(
     start: std::time::Instant,
-    wedge: Request,
-    every: bool,
+    wedge: Wedge,
 ) -> (std::net::SocketAddr, Received, Arc<AtomicUsize>) {
     let accepted = Arc::new(AtomicUsize::new(0));
     let counted = Arc::clone(&accepted);
@@ -581,12 +591,19 @@ fn robot_wedging_before(
         for stream in listener.incoming().take(100) {
             let Ok(mut stream) = stream else { return };
             counted.fetch_add(1, Ordering::SeqCst);
+            let accepted_at = start.elapsed();
             let (wedged, recorder, wedge) = (Arc::clone(&wedged), recorder.clone(), wedge.clone());
             std::thread::spawn(move || {
                 let mut state = MotionState::StandingUp;
                 let mut decoder = FrameDecoder::new();
                 while let Some((id, request)) = read_request(&mut stream, &mut decoder) {
-                    if request == wedge && (!wedged.swap(true, Ordering::SeqCst) || every) {
+                    let wedges = match &wedge {
+                        Wedge::Before(before, every) => {
+                            request == **before && (!wedged.swap(true, Ordering::SeqCst) || *every)
+                        }
+                        Wedge::At(at) => accepted_at < *at && start.elapsed() >= *at,
+                    };
+                    if wedges {
                         // Open and unread until the test is over.
                         std::thread::sleep(StdDuration::from_secs(30));
                         return;
@@ -746,7 +763,7 @@ async fn a_stop_never_waits_behind_a_slow_status_carried_on_the_command_connecti
 async fn a_zero_velocity_a_wedged_robot_never_read_goes_out_again_on_the_next_connection() {
     let start = std::time::Instant::now();
     let zero = Request::Motion(MotionCommand::ZeroVelocity);
-    let (addr, log, _) = robot_wedging_before(start, zero.clone(), false);
+    let (addr, log, _) = robot_wedging(start, Wedge::Before(Box::new(zero.clone()), false));
     let released = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
         wait_taken_up(&log, 3000, &Request::Status).await;
         press(shared, Button::Forward, true).await;
@@ -790,24 +807,33 @@ async fn drive_briefly(shared: &Shared, log: &Received) {
 async fn an_estop_a_wedged_robot_never_read_goes_on_a_new_connection_at_once() {
     let start = std::time::Instant::now();
     let estop = Request::Motion(MotionCommand::SoftEmergencyStop);
-    let (addr, log, _) = robot_wedging_before(start, estop.clone(), false);
-    let pressed = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+    let (addr, log, _) = robot_wedging(start, Wedge::Before(Box::new(estop), false));
+    let after = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
         drive_briefly(shared, &log).await;
-        let pressed = start.elapsed().as_secs_f64();
-        press(shared, Button::Estop, true).await;
-        wait_taken_up(&log, 3000, &estop).await;
-        pressed
+        estop_taken_up_after(shared, &log, start).await
     })
     .await;
-    let log = log.lock().unwrap();
-    let after = log
-        .iter()
-        .find(|(_, r)| *r == estop)
-        .map(|(t, _)| t - pressed);
     assert!(
         after.is_some_and(|after| after < 1.2),
         "the e-stop reached the robot {after:?} s after the press: {log:?}"
     );
+}
+
+/// Presses the e-stop and waits for the scripted robot whose log is `log` (its times from
+/// `start`) to take it up: how long after the press it did, if it did within 3 s.
+async fn estop_taken_up_after(
+    shared: &Shared,
+    log: &Received,
+    start: std::time::Instant,
+) -> Option<f64> {
+    let estop = Request::Motion(MotionCommand::SoftEmergencyStop);
+    let pressed = start.elapsed().as_secs_f64();
+    press(shared, Button::Estop, true).await;
+    wait_taken_up(log, 3000, &estop).await;
+    let log = log.lock().unwrap();
+    log.iter()
+        .find(|(_, r)| *r == estop)
+        .map(|(t, _)| t - pressed)
 }
 
 /// A robot that stops reading every connection at its first e-stop gets one new connection
@@ -817,7 +843,7 @@ async fn an_estop_a_wedged_robot_never_read_goes_on_a_new_connection_at_once() {
 async fn an_estop_goes_on_a_new_connection_once_until_the_robot_answers_again() {
     let start = std::time::Instant::now();
     let estop = Request::Motion(MotionCommand::SoftEmergencyStop);
-    let (addr, log, accepted) = robot_wedging_before(start, estop, true);
+    let (addr, log, accepted) = robot_wedging(start, Wedge::Before(Box::new(estop), true));
     let opened = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
         drive_briefly(shared, &log).await;
         let before = accepted.load(Ordering::SeqCst);
@@ -829,6 +855,35 @@ async fn an_estop_goes_on_a_new_connection_once_until_the_robot_answers_again() 
     })
     .await;
     assert_eq!(opened, 1, "connections opened after the press");
+}
+
+/// A robot whose handlers all hang while the panel is idle stops answering the poll
+/// connection first: the idle command connection, which it no longer reads either, is
+/// reopened then, so that an e-stop pressed afterwards reaches the robot at once (without,
+/// after the seconds of silence that give the old connection up: 1.75 s).
+#[tokio::test(flavor = "current_thread")]
+async fn an_estop_after_the_robot_stopped_answering_polls_goes_on_a_fresh_connection() {
+    let start = std::time::Instant::now();
+    let (addr, log, accepted) = robot_wedging(start, Wedge::At(StdDuration::from_secs(1)));
+    let after = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        wait_taken_up(&log, 3000, &Request::Status).await;
+        let before = accepted.load(Ordering::SeqCst);
+        // The polls go unanswered from 1 s, and their connection is given up about 3.5 s
+        // later: a new poll connection, and with the fix a new command connection.
+        for _ in 0..300 {
+            if accepted.load(Ordering::SeqCst) > before {
+                break;
+            }
+            sleep(20).await;
+        }
+        sleep(200).await;
+        estop_taken_up_after(shared, &log, start).await
+    })
+    .await;
+    assert!(
+        after.is_some_and(|after| after < 1.0),
+        "the e-stop reached the robot {after:?} s after the press: {log:?}"
+    );
 }
 
 /// The stop path wins the robot's connection: with a robot that serves one connection at a
