@@ -240,6 +240,7 @@ pub async fn run<T: Transport>(config: &Config, links: &mut Connections<T>, shar
         heard: [const { Cell::new(Heard::NEVER) }; 3],
         displaced: Cell::new(0),
         polls_fell_silent: Cell::new(None),
+        poll_waiting: Cell::new(None),
         wake_commands: Signal::new(),
         wake_polls: Signal::new(),
         wake_tasks: Signal::new(),
@@ -342,6 +343,8 @@ struct App<'a> {
     /// answered: the command loop reopens its connection if it has heard nothing since
     /// (see [`App::command_loop`]).
     polls_fell_silent: Cell<Option<Instant>>,
+    /// Since when the poll on the poll connection has waited for its answer, if one does.
+    poll_waiting: Cell<Option<Instant>>,
     /// Something for the command loop to send.
     wake_commands: Signal<NoopRawMutex, ()>,
     /// The poll schedule changed.
@@ -436,6 +439,8 @@ impl App<'_> {
         // the polls') would otherwise look as if each new one had just begun to wait.
         let mut waiting = None;
         let mut lost_waiting = None;
+        // A stop moved to a new connection since the robot last answered on this one.
+        let mut moved_unanswered = false;
         loop {
             self.shared.beat(Path::Commands);
             if self
@@ -449,6 +454,7 @@ impl App<'_> {
                 self.displaced.set(0);
                 lost_waiting = None;
                 waiting = None;
+                moved_unanswered = false;
             }
             if !conn.is_connected() {
                 self.hand_polls_back(&mut polls);
@@ -502,14 +508,16 @@ impl App<'_> {
                 self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
                 continue;
             }
-            // A robot that answered on this connection but has sent nothing since an e-stop
-            // or a zero velocity was written, 500 ms ago, no longer reads it (a handler that
-            // hung): the stop goes on a new one at once, first thing there (a latched e-stop,
-            // a zero velocity unanswered: `Control`), not after the seconds of silence that
-            // give a connection up. Once until the robot answers on the new one: a robot that
-            // reads nothing anywhere is not sent a connection every half second.
-            if conn.unread_from(is_stop).is_some_and(|from| from <= now) {
+            // A stop the robot has not read for 500 ms (`stop_unread_until`) goes on a new
+            // connection at once, first thing there (a latched e-stop, a zero velocity
+            // unanswered: `Control`), not after the seconds of silence that give a
+            // connection up.
+            if self
+                .stop_unread_until(conn, moved_unanswered)
+                .is_some_and(|from| from <= now)
+            {
                 warn!("the robot has not read a stop for 500 ms: it goes on a new connection");
+                moved_unanswered = true;
                 // Written long ago, or never to be: nothing to flush.
                 conn.disconnect().await;
                 retry_at = now;
@@ -549,7 +557,7 @@ impl App<'_> {
                 next_poll,
                 conn.expiry(conn.request_timeout()),
                 conn.health_deadline(now),
-                conn.unread_from(is_stop),
+                self.stop_unread_until(conn, moved_unanswered),
             ]
             .into_iter()
             .flatten()
@@ -564,6 +572,7 @@ impl App<'_> {
                 Either3::First(Ok(answer)) => {
                     self.note_heard(ConnectionRole::Commands);
                     lost_waiting = None;
+                    moved_unanswered = false;
                     polls.answered |= self.poll_route.get() == PollRoute::Commands;
                     match (polls.take(answer.message_id), answer.result) {
                         (Some(_), Ok(response)) => self.polled(conn, &response),
@@ -669,6 +678,33 @@ impl App<'_> {
         true
     }
 
+    /// When a stop outstanding on the command connection `conn` will have gone unread long
+    /// enough to be moved to a new connection, if it is to be: [`ANSWER_OVERDUE`] after it
+    /// was written with nothing received since, on a connection the robot answered on (it
+    /// no longer reads it: a handler that hung). On one never answered on, only while a
+    /// poll written after it opened waits unanswered as long: a robot serving one connection
+    /// at a time leaves the command connection unread in its backlog while it serves the
+    /// polls' promptly, and the poll connection gives way instead; one that reads neither
+    /// hung. Either way once until the robot answers on the command connection
+    /// (`moved_unanswered`: a stop moved since it last did): a robot that reads nothing
+    /// anywhere, or reads slowly, is not sent a new connection every half second.
+    fn stop_unread_until<T: Transport>(
+        &self,
+        conn: &Connection<T>,
+        moved_unanswered: bool,
+    ) -> Option<Instant> {
+        let written = conn.unread_since(is_stop)?;
+        if conn.answered() {
+            return Some(written.saturating_add(ANSWER_OVERDUE));
+        }
+        if moved_unanswered {
+            return None;
+        }
+        let poll = self.poll_waiting.get()?;
+        let opened = self.heard(ConnectionRole::Commands).get().opened?;
+        (opened < poll).then(|| written.max(poll).saturating_add(ANSWER_OVERDUE))
+    }
+
     /// Opens `conn` if it is closed and its retry is due; whether it is open. While it
     /// stays closed this waits (for the retry, at most [`IDLE`], or for `wake`, which a
     /// button signals) before returning.
@@ -752,7 +788,13 @@ impl App<'_> {
                 continue;
             };
             let sent = Instant::now();
-            match conn.request(&poll, Some(conn.request_timeout())).await {
+            // The command loop weighs a stop unread on a connection never answered on
+            // against this wait: it looks again now.
+            self.poll_waiting.set(Some(sent));
+            self.wake_commands.signal(());
+            let result = conn.request(&poll, Some(conn.request_timeout())).await;
+            self.poll_waiting.set(None);
+            match result {
                 Ok(response) => {
                     self.note_heard(ConnectionRole::Polls);
                     unserved = 0;

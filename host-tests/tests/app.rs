@@ -573,6 +573,9 @@ enum Wedge {
     /// At the first request there this long after the start, on every connection accepted
     /// before then: the robot's handlers hung all at once.
     At(StdDuration),
+    /// At the first request there this long after the start, on every connection: the
+    /// robot reads nothing anywhere from then on.
+    From(StdDuration),
 }
 
 /// A robot whose handler of a connection wedges, as if it had stopped reading just before
@@ -602,6 +605,7 @@ fn robot_wedging(
                             request == **before && (!wedged.swap(true, Ordering::SeqCst) || *every)
                         }
                         Wedge::At(at) => accepted_at < *at && start.elapsed() >= *at,
+                        Wedge::From(at) => start.elapsed() >= *at,
                     };
                     if wedges {
                         // Open and unread until the test is over.
@@ -884,6 +888,54 @@ async fn an_estop_after_the_robot_stopped_answering_polls_goes_on_a_fresh_connec
         after.is_some_and(|after| after < 1.0),
         "the e-stop reached the robot {after:?} s after the press: {log:?}"
     );
+}
+
+/// A robot whose handlers all hang just before an e-stop, the panel idle, reads neither
+/// the command connection (never answered on) nor the poll connection: the e-stop goes on
+/// a new connection once a poll has waited half a second too, not after the seconds of
+/// silence that give the old one up (1.75 s without).
+#[tokio::test(flavor = "current_thread")]
+async fn an_estop_pressed_as_the_robot_hangs_goes_on_a_new_connection_soon() {
+    let start = std::time::Instant::now();
+    let (addr, log, _) = robot_wedging(start, Wedge::At(StdDuration::from_secs(1)));
+    let after = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        wait_taken_up(&log, 3000, &Request::Status).await;
+        // Just after the hang, seconds before the poll connection is given up as silent:
+        // a poll written within half a second of it waits with the e-stop.
+        let hang = StdDuration::from_millis(1300);
+        tokio::time::sleep(hang.saturating_sub(start.elapsed())).await;
+        estop_taken_up_after(shared, &log, start).await
+    })
+    .await;
+    assert!(
+        after.is_some_and(|after| after < 1.2),
+        "the e-stop reached the robot {after:?} s after the press: {log:?}"
+    );
+}
+
+/// A robot that reads nothing anywhere from just before an e-stop gets one new command
+/// connection for it, not one each time a new poll has waited half a second too: the
+/// e-stop moves once until the robot answers on the command connection.
+#[tokio::test(flavor = "current_thread")]
+async fn an_estop_moves_once_to_a_robot_reading_nothing() {
+    let start = std::time::Instant::now();
+    let (addr, log, accepted) = robot_wedging(start, Wedge::From(StdDuration::from_secs(1)));
+    let opened = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        wait_taken_up(&log, 3000, &Request::Status).await;
+        let hang = StdDuration::from_millis(1300);
+        tokio::time::sleep(hang.saturating_sub(start.elapsed())).await;
+        let before = accepted.load(Ordering::SeqCst);
+        press(shared, Button::Estop, true).await;
+        // The move comes at about 1.8 s. The first poll left unread (written at 1 s) times
+        // out 1.5 s later, and the next has waited half a second at about 3 s: without the
+        // limit, a second move then. The moved e-stop's connection is given up as silent
+        // 1.75 s after it opened (about 3.6 s), the poll connection at 4 s.
+        let window = StdDuration::from_millis(3300);
+        tokio::time::sleep(window.saturating_sub(start.elapsed())).await;
+        accepted.load(Ordering::SeqCst) - before
+    })
+    .await;
+    assert_eq!(opened, 1, "connections opened after the press");
 }
 
 /// The stop path wins the robot's connection: with a robot that serves one connection at a

@@ -425,23 +425,21 @@ impl<T: Transport> Connection<T> {
         self.answered_up_to.is_some_and(|up_to| up_to > sent.at)
     }
 
-    /// When the robot, having answered on this connection, will have sent nothing at all for
-    /// [`ANSWER_OVERDUE`] since the oldest outstanding request that `is` picks was written,
-    /// if nothing comes first: from then on, as far as that request can tell, it no longer
-    /// reads the connection (a handler that hung). The command loop asks it of the stops,
-    /// which would otherwise wait the seconds of [`SILENT_AFTER`] before they went out again
-    /// on a new connection. `None` while the robot has sent something since, and on a
-    /// connection never answered on, which says nothing of the sort: a robot serving one
-    /// connection at a time leaves it unread in its backlog until the one it serves gives
-    /// way.
-    pub fn unread_from(&self, is: impl Fn(&Sent) -> bool) -> Option<Instant> {
+    /// When the oldest outstanding request that `is` picks was written, if the robot has
+    /// sent nothing at all on this connection since: as far as that request can tell, the
+    /// robot may no longer read the connection (a handler that hung). The command loop asks
+    /// it of the stops, which would otherwise wait the seconds of [`SILENT_AFTER`] before
+    /// they went out again on a new connection; whether that is what it means is the
+    /// caller's to weigh, with [`Connection::answered`]: a robot serving one connection at a
+    /// time leaves a connection never answered on unread in its backlog, too.
+    pub fn unread_since(&self, is: impl Fn(&Sent) -> bool) -> Option<Instant> {
         let sent = self
             .outstanding
             .iter()
             .map(|&(_, sent)| sent)
             .find(|sent| is(sent))?;
-        let unread = self.answered && self.waiting_since.is_some_and(|since| since <= sent.at);
-        unread.then(|| sent.at.saturating_add(ANSWER_OVERDUE))
+        let unread = self.waiting_since.is_some_and(|since| since <= sent.at);
+        unread.then_some(sent.at)
     }
 
     /// Gives up on the oldest request if it has waited `limit` or longer at `now`, and
