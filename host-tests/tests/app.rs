@@ -138,6 +138,11 @@ async fn sleep(ms: u64) {
     tokio::time::sleep(StdDuration::from_millis(ms)).await;
 }
 
+/// Sleeps until `ms` after `start` (not at all if that has passed).
+async fn sleep_until(start: std::time::Instant, ms: u64) {
+    tokio::time::sleep(StdDuration::from_millis(ms).saturating_sub(start.elapsed())).await;
+}
+
 /// Waits until `condition` holds on the simulator's request log, for at most `limit_ms`.
 async fn wait_for_log(
     sim: &Simulator,
@@ -902,8 +907,7 @@ async fn an_estop_pressed_as_the_robot_hangs_goes_on_a_new_connection_soon() {
         wait_taken_up(&log, 3000, &Request::Status).await;
         // Just after the hang, seconds before the poll connection is given up as silent:
         // a poll written within half a second of it waits with the e-stop.
-        let hang = StdDuration::from_millis(1300);
-        tokio::time::sleep(hang.saturating_sub(start.elapsed())).await;
+        sleep_until(start, 1300).await;
         estop_taken_up_after(shared, &log, start).await
     })
     .await;
@@ -922,16 +926,14 @@ async fn an_estop_moves_once_to_a_robot_reading_nothing() {
     let (addr, log, accepted) = robot_wedging(start, Wedge::From(StdDuration::from_secs(1)));
     let opened = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
         wait_taken_up(&log, 3000, &Request::Status).await;
-        let hang = StdDuration::from_millis(1300);
-        tokio::time::sleep(hang.saturating_sub(start.elapsed())).await;
+        sleep_until(start, 1300).await;
         let before = accepted.load(Ordering::SeqCst);
         press(shared, Button::Estop, true).await;
         // The move comes at about 1.8 s. The first poll left unread (written at 1 s) times
         // out 1.5 s later, and the next has waited half a second at about 3 s: without the
         // limit, a second move then. The moved e-stop's connection is given up as silent
         // 1.75 s after it opened (about 3.6 s), the poll connection at 4 s.
-        let window = StdDuration::from_millis(3300);
-        tokio::time::sleep(window.saturating_sub(start.elapsed())).await;
+        sleep_until(start, 3300).await;
         accepted.load(Ordering::SeqCst) - before
     })
     .await;
