@@ -380,6 +380,35 @@ fn estop_pressed_during_an_outage_is_sent_first_when_the_robot_is_back() {
     finish(panel);
 }
 
+/// A robot whose client handlers all hang while the panel is idle reads neither the
+/// command connection (never answered on) nor the poll connection: an e-stop pressed then
+/// reaches it on a new connection once a poll has waited half a second with it, not after
+/// the 1.75 s of silence that give the old connection up, and the robot stops.
+#[test]
+fn an_estop_pressed_as_the_robots_handlers_hang_goes_on_a_new_connection() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    let mut panel = boot(&turn, &sim);
+    sim.hang_open_connections();
+    sleep(Duration::from_millis(300));
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+estop");
+    assert!(
+        eventually(REACTION, || first_command(&sim, pressed, 13).is_some()),
+        "the e-stop never reached the robot\n{}",
+        log_text(&sim)
+    );
+    let after = first_command(&sim, pressed, 13).map(|t| t - pressed);
+    assert!(
+        after.is_some_and(|after| after < 1.4),
+        "the e-stop reached the robot {after:?} s after the press\n{}",
+        log_text(&sim)
+    );
+    reaches_soft_estop(&sim);
+    panel.send("-estop");
+    finish(panel);
+}
+
 #[test]
 fn a_refused_estop_is_repeated_until_the_robot_confirms_it() {
     let Some(turn) = turn() else { return };

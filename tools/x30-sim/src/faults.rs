@@ -48,8 +48,9 @@ pub const UNKNOWN_ITEMS: [&[u8]; 5] = [
 ///
 /// Every field can be changed while the simulator runs ([`crate::Simulator::set_faults`]).
 /// Each answer uses the faults in force when it is written; `drop_after`, `hang_up_on`,
-/// `mute` and `refuse_estops` also count as each request arrives, and
-/// `refuse_connections_until` as each connection arrives.
+/// `mute` and `refuse_estops` also count as each request arrives,
+/// `refuse_connections_until` as each connection arrives, and `hang_at` as each connection
+/// reads.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct Faults {
     /// Wait this long before writing each answer, counted from when its request arrived
@@ -72,6 +73,11 @@ pub struct Faults {
     /// setting it to a moment still ahead also closes every open connection.
     /// [`crate::Simulator::refuse_connections`] sets it from a duration.
     pub refuse_connections_until: Option<Instant>,
+    /// From this moment, connections opened before it are no longer read, nor answered,
+    /// and stay open, as by a `robot_server` whose client handlers hung all at once;
+    /// connections opened later are served. [`crate::Simulator::hang_open_connections`]
+    /// sets it to now.
+    pub hang_at: Option<Instant>,
     /// Serve one connection at a time, as a single-threaded `robot_server` does: while one
     /// is open, new connections wait in the listener's backlog, connected but unread, and
     /// are taken in the order they came once it closes. Connections already open when this
@@ -152,6 +158,11 @@ impl Faults {
             .find(|(t, _)| *t == message_type)
             .map_or(Duration::ZERO, |(_, d)| *d);
         self.delay.saturating_add(extra)
+    }
+
+    /// Whether a connection opened at `opened` is hung at `now` ([`Faults::hang_at`]).
+    pub fn hangs(&self, opened: Instant, now: Instant) -> bool {
+        self.hang_at.is_some_and(|at| opened < at && at <= now)
     }
 
     /// Whether connections arriving at `now` are refused.

@@ -250,6 +250,12 @@ impl Simulator {
         self.update_faults(|f| f.refuse_connections_until = Some(until));
     }
 
+    /// Stops reading every open connection, leaving them open, as a `robot_server` whose
+    /// client handlers hung ([`Faults::hang_at`]); connections opened later are served.
+    pub fn hang_open_connections(&self) {
+        self.update_faults(|f| f.hang_at = Some(Instant::now()));
+    }
+
     /// Every frame clients have sent (the last [`MEMORY_LIMIT`]), oldest first.
     pub fn requests(&self) -> Vec<LogEntry> {
         self.shared.log.entries()

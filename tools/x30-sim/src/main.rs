@@ -39,6 +39,10 @@ struct Cli {
     /// Refuse connections (accept and close them at once) for MS milliseconds from the start.
     #[arg(long, value_name = "MS")]
     refuse_for_ms: Option<u64>,
+    /// MS milliseconds from the start, stop reading every connection then open, leaving it
+    /// open (client handlers that hung); connections made later are served.
+    #[arg(long, value_name = "MS")]
+    hang_after_ms: Option<u64>,
     /// Serve one connection at a time: while one is open, new ones wait in the backlog,
     /// connected but unread (a single-threaded robot_server).
     #[arg(long)]
@@ -196,6 +200,9 @@ impl Cli {
                 mute: self.mute,
                 refuse_connections_until: self
                     .refuse_for_ms
+                    .map(|ms| x30_sim::faults::after(Instant::now(), Duration::from_millis(ms))),
+                hang_at: self
+                    .hang_after_ms
                     .map(|ms| x30_sim::faults::after(Instant::now(), Duration::from_millis(ms))),
                 refuse_estops: self.refuse_estops,
                 drop_after: self.drop_after,

@@ -130,6 +130,12 @@ impl Shared {
         self.connection_count() > 0 && lock(&self.faults).one_at_a_time
     }
 
+    /// Whether a connection opened at `opened` is hung now ([`Faults::hang_at`]). Reads the
+    /// one field, not a copy of every fault: each connection asks this before each read.
+    fn hangs(&self, opened: Instant) -> bool {
+        lock(&self.faults).hangs(opened, Instant::now())
+    }
+
     /// Whether the simulator is shutting down.
     pub fn is_shutting_down(&self) -> bool {
         self.shutdown.load(Ordering::SeqCst)
@@ -318,6 +324,8 @@ struct Connection {
     stream: TcpStream,
     conn: ConnId,
     outbox: Sender<Outgoing>,
+    /// When it opened, for [`Faults::hang_at`].
+    opened: Instant,
     /// Frames received so far, for [`Faults::drop_after`].
     received: u64,
     /// Bytes without a sync sequence not answered yet.
@@ -331,6 +339,7 @@ impl Connection {
             stream,
             conn,
             outbox,
+            opened: Instant::now(),
             received: 0,
             unsynced: Unsynced::new(Instant::now(), Decoder::MAX_ASDU),
         }
@@ -358,6 +367,11 @@ impl Connection {
     /// Reads what has arrived into the decoder, waiting no longer than until bytes without
     /// a sync sequence are due an answer; `Close` when the client has gone.
     fn read(&mut self, decoder: &mut Decoder) -> Flow {
+        if self.shared.hangs(self.opened) {
+            // Hung: nothing more is read here, and the connection stays open.
+            std::thread::sleep(READ_POLL);
+            return Flow::Continue;
+        }
         let spare = decoder.spare();
         if spare.is_empty() {
             // The decoder promises room while a frame is incomplete; never spin if not.
@@ -375,6 +389,8 @@ impl Connection {
         }
         match (&self.stream).read(spare) {
             Ok(0) => Flow::Close,
+            // What arrived while the read waited into a hang was never read.
+            Ok(_) if self.shared.hangs(self.opened) => Flow::Continue,
             Ok(n) => {
                 decoder.commit(n);
                 self.unsynced.on_read(n, Instant::now());

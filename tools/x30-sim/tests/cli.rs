@@ -229,6 +229,18 @@ fn max_connections() {
     );
 }
 
+/// `--hang-after-ms`: a connection open at the hang goes unanswered, a new one is served.
+#[test]
+fn hang_after_ms() {
+    let (_running, addr) = spawn(&["--hang-after-ms", "500"]);
+    let mut open = Client::connect(addr);
+    open.status();
+    std::thread::sleep(Duration::from_millis(600));
+    open.send(&Request::Battery);
+    assert!(open.recv_frame_within(Duration::from_millis(500)).is_none());
+    Client::connect(addr).status();
+}
+
 /// `--newest-only`: a new connection closes the one before.
 #[test]
 fn newest_only() {

@@ -494,6 +494,26 @@ fn newest_only_closes_the_connection_before_a_new_one() {
     assert_eq!(sim.connections(), 1);
 }
 
+/// Hung handlers: a connection open when the robot hangs is neither read nor answered from
+/// then on, and stays open; a connection made afterwards is served.
+#[test]
+fn a_hang_leaves_the_open_connections_unread_and_serves_new_ones() {
+    let sim = start_faulty(Faults::default());
+    let mut open = Client::connect(sim.addr());
+    open.status();
+    sim.hang_open_connections();
+    open.send(&Request::Status);
+    assert!(
+        open.recv_frame_within(ms(500)).is_none(),
+        "a connection open at the hang is answered"
+    );
+    assert_eq!(sim.requests().len(), 1, "a request after the hang was read");
+    assert_eq!(sim.connections(), 1, "the hung connection was closed");
+    let mut later = Client::connect(sim.addr());
+    later.status();
+    assert_eq!(sim.requests().len(), 2);
+}
+
 /// A simulator with `faults`, a first connection answered, and a second whose status
 /// request, sent while the first is open, is neither read nor answered within 500 ms.
 fn second_connection_unread(faults: Faults) -> (x30_sim::Simulator, Client, Client) {
