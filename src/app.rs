@@ -477,10 +477,8 @@ impl App<'_> {
                 self.keep_polls_apart(late, now);
                 // The robot may answer in order: a stop written now would wait behind the
                 // poll. A new connection leaves it behind (and its wait: no command's).
-                conn.disconnect().await;
                 waiting = None;
-                retry_at = now;
-                self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
+                retry_at = self.reopen_commands(conn).await;
                 continue;
             }
             while let Some((id, sent)) = conn.expire(now, conn.request_timeout()) {
@@ -503,9 +501,7 @@ impl App<'_> {
                 && self.heard(ConnectionRole::Commands).get().heard <= Some(since)
             {
                 warn!("the robot stopped answering polls: the command connection reopens");
-                conn.disconnect().await;
-                retry_at = now;
-                self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
+                retry_at = self.reopen_commands(conn).await;
                 continue;
             }
             // A stop the robot has not read for 500 ms (`stop_unread_until`) goes on a new
@@ -518,10 +514,7 @@ impl App<'_> {
             {
                 warn!("the robot has not read a stop for 500 ms: it goes on a new connection");
                 moved_unanswered = true;
-                // Written long ago, or never to be: nothing to flush.
-                conn.disconnect().await;
-                retry_at = now;
-                self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
+                retry_at = self.reopen_commands(conn).await;
                 continue;
             }
             let health = conn.health(now);
@@ -678,14 +671,22 @@ impl App<'_> {
         true
     }
 
+    /// Closes the command connection `conn`, to be reopened at once: returns when to. What
+    /// it holds was written long ago, or never will be: nothing is flushed.
+    async fn reopen_commands<T: Transport>(&self, conn: &mut Connection<T>) -> Instant {
+        conn.disconnect().await;
+        self.connection(ConnectionRole::Commands, ConnectionState::Connecting);
+        Instant::now()
+    }
+
     /// When a stop outstanding on the command connection `conn` will have gone unread long
     /// enough to be moved to a new connection, if it is to be: [`ANSWER_OVERDUE`] after it
     /// was written with nothing received since, on a connection the robot answered on (it
     /// no longer reads it: a handler that hung). On one never answered on, only while a
     /// poll written after it opened waits unanswered as long: a robot serving one connection
     /// at a time leaves the command connection unread in its backlog while it serves the
-    /// polls' promptly, and the poll connection gives way instead; one that reads neither
-    /// hung. Either way once until the robot answers on the command connection
+    /// polls' promptly, and the poll connection gives way instead; a robot that reads
+    /// neither has hung. Either way once until the robot answers on the command connection
     /// (`moved_unanswered`: a stop moved since it last did): a robot that reads nothing
     /// anywhere, or reads slowly, is not sent a new connection every half second.
     fn stop_unread_until<T: Transport>(
