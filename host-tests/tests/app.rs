@@ -143,14 +143,11 @@ async fn sleep_until(start: std::time::Instant, ms: u64) {
     tokio::time::sleep(StdDuration::from_millis(ms).saturating_sub(start.elapsed())).await;
 }
 
-/// Waits until `condition` holds on the simulator's request log, for at most `limit_ms`.
-async fn wait_for_log(
-    sim: &Simulator,
-    limit_ms: u64,
-    condition: impl Fn(&[LogEntry]) -> bool,
-) -> bool {
+/// Waits until `condition` holds, looking every 20 ms, for at most `limit_ms`; whether it
+/// did.
+async fn wait_until(limit_ms: u64, condition: impl Fn() -> bool) -> bool {
     for _ in 0..limit_ms / 20 {
-        if condition(&sim.requests()) {
+        if condition() {
             return true;
         }
         sleep(20).await;
@@ -158,16 +155,22 @@ async fn wait_for_log(
     false
 }
 
+/// Waits until `condition` holds on the simulator's request log, for at most `limit_ms`.
+async fn wait_for_log(
+    sim: &Simulator,
+    limit_ms: u64,
+    condition: impl Fn(&[LogEntry]) -> bool,
+) -> bool {
+    wait_until(limit_ms, || condition(&sim.requests())).await
+}
+
 /// Waits until a scripted robot has taken up `wanted` (its log `log`), for at most
 /// `limit_ms`.
 async fn wait_taken_up(log: &Received, limit_ms: u64, wanted: &Request) -> bool {
-    for _ in 0..limit_ms / 20 {
-        if log.lock().unwrap().iter().any(|(_, r)| r == wanted) {
-            return true;
-        }
-        sleep(20).await;
-    }
-    false
+    wait_until(limit_ms, || {
+        log.lock().unwrap().iter().any(|(_, r)| r == wanted)
+    })
+    .await
 }
 
 /// Waits for the first Type 2 request with `command` logged at or after `since`
@@ -730,12 +733,7 @@ async fn a_stop_never_waits_behind_a_slow_status_carried_on_the_command_connecti
     };
     let pressed = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
         // Two poll connections find no answer (1.5 s, then 3 s waits): about 9.5 s.
-        for _ in 0..750 {
-            if carried(&log).is_some() {
-                break;
-            }
-            sleep(20).await;
-        }
+        wait_until(15_000, || carried(&log).is_some()).await;
         // The status waits 0.5 s there: the command connection is reopened. (Without, it
         // would be given up on as silent 2 s after the status, the e-stop waiting till then.)
         sleep(700).await;
@@ -879,12 +877,7 @@ async fn an_estop_after_the_robot_stopped_answering_polls_goes_on_a_fresh_connec
         let before = accepted.load(Ordering::SeqCst);
         // The polls go unanswered from 1 s, and their connection is given up about 3.5 s
         // later: a new poll connection, and with the fix a new command connection.
-        for _ in 0..300 {
-            if accepted.load(Ordering::SeqCst) > before {
-                break;
-            }
-            sleep(20).await;
-        }
+        wait_until(6000, || accepted.load(Ordering::SeqCst) > before).await;
         sleep(200).await;
         estop_taken_up_after(shared, &log, start).await
     })
@@ -2258,14 +2251,10 @@ async fn a_robot_that_answers_late_is_read_and_confirms_an_estop() {
         let sim = simulator(1.0);
         sim.set_faults(faults);
         with_app(&sim, async |shared| {
-            let mut read = false;
-            for _ in 0..750 {
-                if shared.snapshot().is_some_and(|s| s.status.is_some()) {
-                    read = true;
-                    break;
-                }
-                sleep(20).await;
-            }
+            let read = wait_until(15_000, || {
+                shared.snapshot().is_some_and(|s| s.status.is_some())
+            })
+            .await;
             assert!(read, "{name}: the status is read within 15 s");
             let newest = || sim.requests().iter().map(|e| e.conn).max();
             let connections = newest();
