@@ -6,11 +6,12 @@
 #
 #   scripts/fuzz.sh [SECONDS] [extra libFuzzer flags...]
 #
-# The targets: frame_xml (frame decoder and both message decoders on a byte stream) and
+# The targets: frame_xml (frame decoder and both message decoders on a byte stream),
+# field_input (the console's lines, the settings form and settings blobs from the flash: no
+# panic, and whatever they leave in the settings is stored and read back as it is) and
 # read_paths (the reader's layout shortcuts against its general path, the answers' writer
-# against its general path, decode(encode(x)) == x, and the number text against Rust's own). Each runs for SECONDS, default 30,
-# beside the other (a core each),
-# first against the codec as the boards build it, then against its `compact` build (the one
+# against its general path, decode(encode(x)) == x, and the number text against Rust's own).
+# Each runs for SECONDS, default 30, beside the others, first against the codec as the boards build it, then against its `compact` build (the one
 # that meets the flash targets, whose reader and number text take other code). The fuzzer
 # works on a copy of the committed seed corpus (host-tests/fuzz/corpus/<target>/, written by
 # gen_corpus.py) in a temporary directory, so the corpus only changes when someone copies an
@@ -47,15 +48,18 @@ trap 'rm -rf "$WORK"' EXIT
 # rebuild every dependency of the host workspace's other builds, and theirs these. The two
 # builds share it (and their dependencies); the second replaces the first's binaries.
 TARGET_DIR="$FUZZ_DIR/../../tools/target/fuzz"
+TARGETS=(frame_xml read_paths field_input)
+# The libFuzzer dictionary of target "$1": the protocol's vocabulary for the codec's targets.
+dict_of() { if [ "$1" = field_input ]; then echo field_input.dict; else echo frame_xml.dict; fi; }
 for build in default compact; do
   features=()
   [ "$build" = compact ] && features=(--features x30-panel/compact)
   cargo build --profile fuzz -p x30-fuzz --bins --target-dir "$TARGET_DIR" "${features[@]}"
 
-  # The two targets fuzz side by side, one a core, each for SECONDS; each one's output goes
+  # The three targets fuzz side by side, each for SECONDS; each one's output goes
   # to a log of its own, printed whole if it found something and its final figures otherwise.
   pids=()
-  for target in frame_xml read_paths; do
+  for target in "${TARGETS[@]}"; do
     BIN="$TARGET_DIR/$HOST/fuzz/$target"
     ARTIFACTS="$FUZZ_DIR/artifacts/$build/$target"
     mkdir -p "$ARTIFACTS"
@@ -66,13 +70,13 @@ for build in default compact; do
       -rss_limit_mb=2048 \
       -max_len=8192 \
       -print_final_stats=1 \
-      -dict="$FUZZ_DIR/frame_xml.dict" \
+      -dict="$FUZZ_DIR/$(dict_of "$target")" \
       -artifact_prefix="$ARTIFACTS/" \
       "$@" > "$WORK/$target.log" 2>&1 &
     pids+=("$!")
   done
   failed=0
-  for target in frame_xml read_paths; do
+  for target in "${TARGETS[@]}"; do
     status=0
     wait "${pids[0]}" || status=$?
     pids=("${pids[@]:1}")

@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
-"""Writes the seed corpora of the fuzz targets: corpus/frame_xml/ and corpus/read_paths/.
+"""Writes the seed corpora of the fuzz targets: corpus/frame_xml/, corpus/read_paths/ and
+corpus/field_input/.
 
 The seeds are the sample messages of the vendor's protocol document (V1.0.12, every Type,
 request and response, as printed there, quirks included), plus the variations real traffic
 shows (docs/protocol.md, "Beyond the document") and the stream situations the frame
-decoder must handle.
+decoder must handle; and for field_input, what the field hands the settings: console
+sessions, settings forms and flash blobs (the store's layout, built here by hand too).
 Frames are built here by hand, independently of the crate's encoder.
 
 Each frame_xml input is a mode byte, read sizes, then the byte stream (see the comment at
@@ -22,6 +24,7 @@ from pathlib import Path
 
 OUT = Path(__file__).resolve().parent / "corpus" / "frame_xml"
 OUT_BODIES = Path(__file__).resolve().parent / "corpus" / "read_paths"
+OUT_FIELD = Path(__file__).resolve().parent / "corpus" / "field_input"
 SYNC = b"\xEB\x90\xEB\x90"
 
 
@@ -203,6 +206,36 @@ REGRESSIONS = {
 }
 
 
+def blob(entries):
+    """A settings blob: magic, layout version 1, then (key id, value) entries."""
+    out = b"X30S\x01"
+    for key_id, value in entries:
+        value = value.encode()
+        out += bytes([key_id, len(value)]) + value
+    return out
+
+
+# field_input: the first byte is the way in (0 flash, 1 console, 2 form); a console input
+# then has the robot's pose (four little-endian f32s: x, y, z, yaw).
+POSE = struct.pack("<4f", 1.5, -2.0, 0.1, 0.5)
+FIELD = {
+    "flash-every-kind": b"\x00" + blob([
+        (1, "10.0.0.2:30001"), (2, "0"), (3, "192.168.1.50/24"), (4, "192.168.1.1"),
+        (5, "0.8"), (7, "default"), (11, "0000FF:20,FF0000:100:breathing"),
+        (12, "1,1,2.5,-1,0,1.5707964"), (13, "250"), (17, "300"), (19, "nc"), (20, "1234"),
+        (64, "1,1,0,0,0,0,task"), (64, "2,1,3.5,-1.25,0,1.57,transition")]),
+    "flash-unknown-and-invalid": b"\x00" + blob([(99, "x"), (5, "9"), (18, "0")]),
+    "console-session": b"\x01" + POSE + (
+        "help\r\nshow\r\nset speed-forward 0.8\r\nset lights 00FF00:50,FF0000:100:breathing\r\n"
+        "dock here 1 3\r\nroute add here task\r\nroute add 3.5 -1.25 0 1.57 transition\r\n"
+        "route show\r\nset dhcp 0\r\nset ip 10.0.0.9/24\r\nsave\r\nunset speed-forward\r\n"
+        "route clear\r\nstatus\r\nset robot 10.0.0.2\r\nsave\r\n").encode(),
+    "console-editing": b"\x01" + POSE + b"set rep\x7feat-ms 3\x08300\x1b[A\x1b[D\r\nsave\n",
+    "form-speeds": b"\x02" + b"speed-forward=0.8&speed-backward=&repeat-ms=300&lights=00FF00%3A50",
+    "form-dock-escaped": b"\x02" + b"dock=1%2C1%2C2.5%2C-1%2C0%2C1.5707964&web-pin=****&robot=10.0.0.2%3A30000",
+}
+
+
 def main():
     OUT.mkdir(parents=True, exist_ok=True)
     for old in [*OUT.glob("seed-*"), *OUT.glob("regress-*")]:
@@ -224,6 +257,12 @@ def main():
     for name, body in REGRESSIONS.items():
         (OUT_BODIES / f"regress-{name}").write_bytes(body.encode())
     print(f"wrote {len(bodies) + len(REGRESSIONS)} inputs to {OUT_BODIES}")
+    OUT_FIELD.mkdir(parents=True, exist_ok=True)
+    for old in OUT_FIELD.glob("seed-*"):
+        old.unlink()
+    for name, data in FIELD.items():
+        (OUT_FIELD / f"seed-{name}").write_bytes(data)
+    print(f"wrote {len(FIELD)} inputs to {OUT_FIELD}")
 
 
 if __name__ == "__main__":

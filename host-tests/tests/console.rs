@@ -1,5 +1,7 @@
 //! The serial console: line editing, each command's answer, and saving through the store.
 
+#[path = "common/connected.rs"]
+mod connected;
 // The store's tests use the whole simulated chip; these only a blank one.
 #[allow(dead_code)]
 #[path = "common/sim_flash.rs"]
@@ -9,19 +11,19 @@ mod steady;
 #[path = "common/terminal.rs"]
 mod terminal;
 
+use connected::connected;
 use embassy_time::{Duration, Instant};
 use sim_flash::{PAGE, SimFlash};
 use steady::steady;
 use terminal::{Keyboard, Screen};
 use x30_panel::app::{Shared, Snapshot};
-use x30_panel::config::{Cidr, Config};
+use x30_panel::config::Config;
 use x30_panel::console::commands::{Action, execute};
 use x30_panel::console::line::{Input, LINE_MAX, LineEditor};
 use x30_panel::console::{self, Answer, PROMPT, Reboot};
-use x30_panel::panel::indicators::{Faults, LinkState};
+use x30_panel::panel::indicators::LinkState;
 use x30_panel::panel::monitor::Stamped;
 use x30_panel::panel::{Busy, Button, ButtonEvent};
-use x30_panel::panel::{Indicators, Led};
 use x30_panel::proto::codes::MotionState;
 use x30_panel::proto::message::{Battery, RobotStatus};
 use x30_panel::settings::desk::{self, Desk, Refused};
@@ -121,29 +123,7 @@ fn snapshot() -> Snapshot {
         electricity: Some(87),
         ..RobotStatus::UNAVAILABLE
     };
-    Snapshot {
-        link: LinkState::Connected,
-        robot: Config::default().robot,
-        status: Some(Stamped::new(status, Instant::now())),
-        battery: None,
-        perception: None,
-        motors: None,
-        nav: None,
-        polls: Config::default().polls,
-        faults: Faults::default(),
-        leds: Indicators {
-            link: Led::On,
-            activity: Led::Off,
-            fault: Led::Off,
-        },
-        command_failed: false,
-        busy: None,
-        board_address: Some(Cidr {
-            address: [10, 0, 2, 15],
-            prefix_len: 24,
-        }),
-        at: Instant::now(),
-    }
+    connected(status, Instant::now())
 }
 
 #[test]
