@@ -15,7 +15,9 @@
 //!   at a time, so a robot slow to answer polls never holds a command back. A robot that
 //!   serves a single client (one at a time, serving the command connection; closing the
 //!   others; or keeping only the newest) has the polls carried by the command loop instead,
-//!   behind the commands;
+//!   behind the commands. While the command connection has not answered since it opened,
+//!   the poll loop writes the stops written there too, which a robot that does not read
+//!   the command connection then gets at once;
 //! - the **navigation** loop opens the navigation connection for each task, sends its 1003
 //!   unless the task was withdrawn meanwhile, and holds that connection open until the
 //!   answer, because the robot stops a task whose client disconnects (ErrorStatus 41802);
@@ -43,17 +45,19 @@ use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Instant, Timer, with_timeout};
 
 use crate::client::{
-    ANSWER_OVERDUE, ClientError, Connection, Health, RobotClock, STABLE_AFTER, Sent, Transport,
+    ANSWER_OVERDUE, Answer, ClientError, Connection, Health, RobotClock, STABLE_AFTER, Sent,
+    Transport,
 };
 use crate::config::{Cidr, Config, PollPeriods, RobotAddress};
 use crate::panel::indicators::{Faults, LinkState};
 use crate::panel::monitor::Stamped;
 use crate::panel::{
-    Busy, ButtonEvent, ConnectionRole, ConnectionState, Indicators, NetworkState, Panel,
+    Busy, ButtonEvent, ConnectionRole, ConnectionState, Indicators, NetworkState, Panel, control,
 };
 use crate::proto::codes::{MessageType, MotionCommandCode};
 use crate::proto::message::{
-    Battery, MotorTemperatures, NavResult, NavTaskState, Perception, Request, Response, RobotStatus,
+    Battery, MotionCommand, MotorTemperatures, NavResult, NavTaskState, Perception, Request,
+    Response, RobotStatus,
 };
 
 /// How many button events may wait for the application.
@@ -241,6 +245,8 @@ pub async fn run<T: Transport>(config: &Config, links: &mut Connections<T>, shar
         displaced: Cell::new(0),
         polls_fell_silent: Cell::new(None),
         poll_waiting: Cell::new(None),
+        stops_aside: Cell::new(StopsAside::NONE),
+        stop_copied: Cell::new(None),
         wake_commands: Signal::new(),
         wake_polls: Signal::new(),
         wake_tasks: Signal::new(),
@@ -323,6 +329,70 @@ const DISPLACED_WITHIN: Duration = STABLE_AFTER;
 /// found answering.
 const UNSERVED_POLL_CONNECTIONS: u8 = 2;
 
+/// The stops (e-stop, zero velocity) the command loop wrote on a command connection the
+/// robot has not answered on since it opened, and an e-stop pressed while the command
+/// connection is being reopened, each with when: the poll connection, if the robot has
+/// answered on it, writes them too.
+///
+/// Such a command connection may be one the robot does not read: a robot serving one
+/// connection at a time leaves it in its backlog while it serves the polls', one that takes
+/// a limited number of clients closes it once another client took the place it had, one
+/// whose command handler hung no longer reads it. The rules that move a stop to another
+/// connection need half a second or more to tell; a copy on the poll connection reaches such
+/// a robot at once. A robot that reads both gets the stop twice, which stops nothing more.
+/// Only stops that cannot act late are copied: a copy is written within
+/// [`control::STALE_PRESS`] of its original or not at all, a zero velocity only while no
+/// motion button is held (it would stop motion pressed since), and a cancel never (it could
+/// cancel a task ordered since; the task's own connection is its backstop, see
+/// [`CANCEL_GRACE`]).
+#[derive(Debug, Clone, Copy)]
+struct StopsAside {
+    /// When an e-stop was set aside, if one waits.
+    estop: Option<Instant>,
+    /// When a zero velocity was set aside, if one waits.
+    zero_velocity: Option<Instant>,
+}
+
+impl StopsAside {
+    /// Nothing set aside.
+    const NONE: Self = StopsAside {
+        estop: None,
+        zero_velocity: None,
+    };
+
+    /// Whether nothing is set aside.
+    fn is_empty(&self) -> bool {
+        self.estop.is_none() && self.zero_velocity.is_none()
+    }
+
+    /// Sets `request` aside at `at` if it is a stop that is copied; whether it is.
+    fn set_aside(&mut self, request: &Request, at: Instant) -> bool {
+        let slot = match request {
+            Request::Motion(MotionCommand::SoftEmergencyStop) => &mut self.estop,
+            Request::Motion(MotionCommand::ZeroVelocity) => &mut self.zero_velocity,
+            _ => return false,
+        };
+        *slot = Some(at);
+        true
+    }
+
+    /// Takes the stops set aside that are still fresh at `now`, e-stop first; zero velocity
+    /// only if `motion_held` is false. The rest are dropped.
+    fn take(&mut self, now: Instant, motion_held: bool) -> impl Iterator<Item = Request> {
+        let fresh = |at: Option<Instant>| {
+            at.is_some_and(|at| now.saturating_duration_since(at) <= control::STALE_PRESS)
+        };
+        let Self {
+            estop,
+            zero_velocity,
+        } = core::mem::replace(self, Self::NONE);
+        let estop = fresh(estop).then_some(MotionCommand::SoftEmergencyStop);
+        let zero_velocity =
+            (fresh(zero_velocity) && !motion_held).then_some(MotionCommand::ZeroVelocity);
+        estop.into_iter().chain(zero_velocity).map(Request::Motion)
+    }
+}
+
 /// What the loops share.
 struct App<'a> {
     /// The panel; borrowed only between awaits, never across one.
@@ -345,6 +415,13 @@ struct App<'a> {
     polls_fell_silent: Cell<Option<Instant>>,
     /// Since when the poll on the poll connection has waited for its answer, if one does.
     poll_waiting: Cell<Option<Instant>>,
+    /// The stops the command loop wrote on a connection the robot had not answered on, for
+    /// the poll connection to carry too ([`StopsAside`]).
+    stops_aside: Cell<StopsAside>,
+    /// When the poll connection first carried such a stop since the command connection was
+    /// last answered: the original still waits there, and the poll connection gives way to
+    /// it as to a stop pending ([`App::stop_passed_over_by`]).
+    stop_copied: Cell<Option<Instant>>,
     /// Something for the command loop to send.
     wake_commands: Signal<NoopRawMutex, ()>,
     /// The poll schedule changed.
@@ -418,6 +495,11 @@ impl App<'_> {
                 if event.pressed { "pressed" } else { "released" }
             );
             self.panel(|p| p.button(event));
+            // An e-stop the command connection cannot carry now (it is being reopened) goes
+            // on the poll connection at once, not at the next connection attempt.
+            if self.panel(|p| !p.commands_connected() && p.control().estop_unconfirmed()) {
+                self.set_aside(&Request::Motion(MotionCommand::SoftEmergencyStop));
+            }
             // At once: the console's save asks whether a button is held.
             self.publish_snapshot(Instant::now());
             self.wake_commands.signal(());
@@ -452,6 +534,7 @@ impl App<'_> {
                 // Another robot: what this one served or left waiting says nothing about it.
                 self.poll_route.set(PollRoute::Own);
                 self.displaced.set(0);
+                self.stop_copied.set(None);
                 lost_waiting = None;
                 waiting = None;
                 moved_unanswered = false;
@@ -667,6 +750,9 @@ impl App<'_> {
                 self.panel(|p| p.command_answered(Err(&e)));
                 return false;
             }
+            if !conn.answered() {
+                self.set_aside(&request);
+            }
         }
         true
     }
@@ -761,6 +847,13 @@ impl App<'_> {
             {
                 retry_at = Instant::now();
             }
+            if let Err(e) = self.write_stops_aside(conn).await {
+                warn!("poll connection lost: {:?}", e);
+                self.note_lost(ConnectionRole::Polls);
+                retry_at = self.retry_at(conn.reconnect_delay(STABLE_AFTER));
+                self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
+                continue;
+            }
             if self.poll_route.get() == PollRoute::Commands {
                 // Until the command connection closes. This connection, which the polls
                 // left (from here, or moved by the command loop), closes first.
@@ -769,7 +862,7 @@ impl App<'_> {
                 unserved = 0;
                 continue;
             }
-            giving_way &= self.panel(|p| p.stop_unanswered());
+            giving_way &= self.panel(|p| p.stop_unanswered()) || self.stop_copied.get().is_some();
             if giving_way {
                 // Until the command connection is answered (or the stop is no longer due):
                 // a robot serving one connection at a time then takes the command one.
@@ -793,14 +886,14 @@ impl App<'_> {
             // against this wait: it looks again now.
             self.poll_waiting.set(Some(sent));
             self.wake_commands.signal(());
-            let result = conn.request(&poll, Some(conn.request_timeout())).await;
+            let result = self.poll_exchange(conn, &poll).await;
             self.poll_waiting.set(None);
             match result {
                 Ok(response) => {
                     self.note_heard(ConnectionRole::Polls);
                     unserved = 0;
                     self.polled(conn, &response);
-                    if self.panel(|p| p.stop_passed_over_by(sent)) {
+                    if self.stop_passed_over_by(sent) {
                         warn!(
                             "the robot answers polls but not the stop: the poll connection gives way"
                         );
@@ -841,6 +934,97 @@ impl App<'_> {
                 }
             }
         }
+    }
+
+    /// Writes `poll` on the poll connection `conn` and waits for its answer as long as the
+    /// connection's request timeout allows; meanwhile writes the stops set aside for it
+    /// ([`App::write_stops_aside`]) and hands their answers to the panel.
+    async fn poll_exchange<T: Transport>(
+        &self,
+        conn: &mut Connection<T>,
+        poll: &Request,
+    ) -> Result<Response, ClientError> {
+        let id = conn.send(poll).await?;
+        let until = Instant::now() + conn.request_timeout();
+        loop {
+            match select3(conn.receive(), self.wake_polls.wait(), Timer::at(until)).await {
+                Either3::First(Ok(answer)) if answer.message_id == id => return answer.result,
+                Either3::First(Ok(answer)) => self.copy_answered(&answer),
+                Either3::First(Err(e)) => return Err(e),
+                Either3::Second(()) => self.write_stops_aside(conn).await?,
+                Either3::Third(()) => {
+                    conn.give_up_on(id);
+                    return Err(ClientError::Timeout);
+                }
+            }
+        }
+    }
+
+    /// Sets `request` aside for the poll connection to write too, if it is a stop it copies
+    /// ([`StopsAside`]) and the polls have a connection of their own.
+    fn set_aside(&self, request: &Request) {
+        if self.poll_route.get() == PollRoute::Commands {
+            return;
+        }
+        let mut aside = self.stops_aside.get();
+        if aside.set_aside(request, Instant::now()) {
+            self.stops_aside.set(aside);
+            self.wake_polls.signal(());
+        }
+    }
+
+    /// Writes the stops set aside for the poll connection `conn` ([`StopsAside`]) if the
+    /// robot has answered on it, else drops them; an error if the connection was lost.
+    async fn write_stops_aside<T: Transport>(
+        &self,
+        conn: &mut Connection<T>,
+    ) -> Result<(), ClientError> {
+        let mut aside = self.stops_aside.replace(StopsAside::NONE);
+        if aside.is_empty() {
+            return Ok(());
+        }
+        let motion_held = self.panel(|p| p.control().active_motion().is_some());
+        let usable = conn.is_connected() && conn.answered();
+        for stop in aside.take(Instant::now(), motion_held) {
+            if !usable {
+                continue;
+            }
+            info!(
+                "the command connection is not answered yet: Type 2 Command {} on the poll connection too",
+                stop.command()
+            );
+            conn.send(&stop).await?;
+            if self.stop_copied.get().is_none() {
+                self.stop_copied.set(Some(Instant::now()));
+            }
+        }
+        Ok(())
+    }
+
+    /// An answer on the poll connection other than its poll's: to a stop it carried too,
+    /// handed to the panel as the command connection's answers are. (A poll's answer that
+    /// came after its wait ended is dropped.)
+    fn copy_answered(&self, answer: &Answer) {
+        if answer.request.message_type == MessageType::Motion {
+            self.note_heard(ConnectionRole::Polls);
+            self.panel(|p| p.command_answered(answer.result.as_ref()));
+            self.wake_commands.signal(());
+            self.wake_leds.signal(());
+        }
+    }
+
+    /// Whether the robot served the poll written at `sent` ahead of a stop on the command
+    /// connection ([`Panel::stop_passed_over_by`]), or of a stop there that the poll
+    /// connection carried too ([`App::stop_copied`]), by [`ANSWER_OVERDUE`] or more: the
+    /// poll connection then gives way. The copy may have had the e-stop confirmed, which
+    /// ends the stop's being pending, while a robot serving one connection at a time still
+    /// leaves the command connection in its backlog.
+    fn stop_passed_over_by(&self, sent: Instant) -> bool {
+        self.panel(|p| p.stop_passed_over_by(sent))
+            || self
+                .stop_copied
+                .get()
+                .is_some_and(|copied| copied.saturating_add(ANSWER_OVERDUE) <= sent)
     }
 
     /// Counts the poll connection `conn`, silent or lost, in `unserved` if it never
@@ -892,8 +1076,12 @@ impl App<'_> {
         });
     }
 
-    /// Notes that `role`'s connection was answered now.
+    /// Notes that `role`'s connection was answered now. An answer on the command
+    /// connection ends the wait of the stops the poll connection carried too.
     fn note_heard(&self, role: ConnectionRole) {
+        if role == ConnectionRole::Commands {
+            self.stop_copied.set(None);
+        }
         let cell = self.heard(role);
         cell.set(Heard {
             heard: Some(Instant::now()),

@@ -519,20 +519,25 @@ fn robot_hanging_up_after_each_answer(
 /// closes the first connection at once, so that it serves the next, the polls', while the
 /// panel's new command connection waits behind it. It answers a status with `MotionState` (6
 /// once an e-stop came), a perception poll with the way clear, a Type 2 with success and
-/// anything else with a Type 0; what it received, with the time.
+/// anything else with a Type 0; what it received, with the time, and how many connections
+/// it has begun to serve.
 fn robot_serving_one_connection_at_a_time(
     start: std::time::Instant,
-) -> (std::net::SocketAddr, Received) {
-    scripted_robot(start, |listener, recorder| {
+) -> (std::net::SocketAddr, Received, Arc<AtomicUsize>) {
+    let served = Arc::new(AtomicUsize::new(0));
+    let counted = Arc::clone(&served);
+    let (addr, log) = scripted_robot(start, move |listener, recorder| {
         let mut state = MotionState::StandingUp;
-        for (served, stream) in listener.incoming().take(100).enumerate() {
+        for (made, stream) in listener.incoming().take(100).enumerate() {
             let Ok(stream) = stream else { return };
-            if served == 0 {
+            if made == 0 {
                 continue;
             }
+            counted.fetch_add(1, Ordering::SeqCst);
             serve_in_order(stream, &recorder, &mut state);
         }
-    })
+    });
+    (addr, log, served)
 }
 
 /// Answers the requests of `stream` as they come ([`scripted_answer`]) until it closes,
@@ -551,15 +556,19 @@ fn serve_in_order(mut stream: std::net::TcpStream, recorder: &Recorder, state: &
 /// A robot that takes one client at a time: a connection made while it serves one is
 /// closed at once, unread. It closes the first connection too, so that it serves the next,
 /// the polls', and every new command connection is closed while it does. Answers as
-/// [`scripted_answer`]; what it received, with the time.
+/// [`scripted_answer`]; what it received, with the time, and how many connections were
+/// made to it.
 fn robot_taking_one_client_at_a_time(
     start: std::time::Instant,
-) -> (std::net::SocketAddr, Received) {
-    scripted_robot(start, |listener, recorder| {
+) -> (std::net::SocketAddr, Received, Arc<AtomicUsize>) {
+    let connections = Arc::new(AtomicUsize::new(0));
+    let counted = Arc::clone(&connections);
+    let (addr, log) = scripted_robot(start, move |listener, recorder| {
         let busy = Arc::new(AtomicBool::new(false));
         let state = Arc::new(Mutex::new(MotionState::StandingUp));
         for (made, stream) in listener.incoming().take(1000).enumerate() {
             let Ok(stream) = stream else { return };
+            counted.fetch_add(1, Ordering::SeqCst);
             if made == 0 || busy.swap(true, Ordering::SeqCst) {
                 continue;
             }
@@ -569,7 +578,8 @@ fn robot_taking_one_client_at_a_time(
                 busy.store(false, Ordering::SeqCst);
             });
         }
-    })
+    });
+    (addr, log, connections)
 }
 
 /// When a scripted robot's handler of a connection wedges ([`robot_wedging`]).
@@ -826,6 +836,77 @@ async fn an_estop_a_wedged_robot_never_read_goes_on_a_new_connection_at_once() {
     );
 }
 
+/// A robot whose command handler hangs while the panel is idle (the command connection,
+/// never answered on, no longer read; the polls' still served) gets an e-stop at once: the
+/// poll connection carries it too. Without, it waited for the poll connection to give way
+/// and the command connection to be given up as silent: 1.75 s.
+#[tokio::test(flavor = "current_thread")]
+async fn an_estop_reaches_at_once_a_robot_that_hung_only_the_idle_command_connection() {
+    let start = std::time::Instant::now();
+    let estop = Request::Motion(MotionCommand::SoftEmergencyStop);
+    let (addr, log, _) = robot_wedging(start, Wedge::Before(Box::new(estop), false));
+    let after = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        wait_taken_up(&log, 3000, &Request::Status).await;
+        estop_taken_up_after(shared, &log, start).await
+    })
+    .await;
+    assert!(
+        after.is_some_and(|after| after < STOP_BOUND),
+        "the e-stop reached the robot {after:?} s after the press: {log:?}"
+    );
+}
+
+/// A stop written on a command connection the robot has not answered on yet goes on the
+/// poll connection too; once the command connection has answered, on it alone.
+#[tokio::test(flavor = "current_thread")]
+async fn a_stop_goes_on_the_poll_connection_too_until_the_command_connection_answers() {
+    let sim = simulator(1.0);
+    with_app(&sim, async |shared| {
+        wait_connected(&sim).await;
+        let connections_of = |since: f64, command: i32| {
+            let mut conns: Vec<u64> = sim
+                .requests()
+                .iter()
+                .filter(|e| e.t >= since && e.command == Some(command))
+                .map(|e| e.conn)
+                .collect();
+            conns.sort_unstable();
+            conns.dedup();
+            conns
+        };
+        let (pressed, _) = estop_reaches_the_robot(&sim, shared, 2000, "idle panel").await;
+        sleep(300).await;
+        let polled_on = sim
+            .requests()
+            .iter()
+            .rev()
+            .find(|e| e.message_type == Some(1002))
+            .map(|e| e.conn);
+        let estops = connections_of(pressed, 13);
+        assert!(
+            estops.len() == 2 && estops.contains(&polled_on.unwrap_or(0)),
+            "the first e-stop on the command connection and the poll connection: {estops:?}"
+        );
+        // Confirmed by a status (2 Hz); released once the robot has left soft e-stop.
+        sleep(1000).await;
+        sim.robot(|r| r.set_motion_state(MotionState::StandingUp));
+        sleep(1000).await;
+        let pressed = sim.elapsed().as_secs_f64();
+        click(shared, Button::Forward).await;
+        assert!(
+            wait_for_command(&sim, 2000, pressed, 6).await.is_some(),
+            "the release's zero velocity"
+        );
+        sleep(300).await;
+        assert_eq!(
+            connections_of(pressed, 6).len(),
+            1,
+            "the zero velocity on the command connection alone, which answered the forward"
+        );
+    })
+    .await;
+}
+
 /// Presses the e-stop and waits for the scripted robot whose log is `log` (its times from
 /// `start`) to take it up: how long after the press it did, if it did within 3 s.
 async fn estop_taken_up_after(
@@ -933,13 +1014,37 @@ async fn an_estop_moves_once_to_a_robot_reading_nothing() {
     assert_eq!(opened, 1, "connections opened after the press");
 }
 
-/// The stop path wins the robot's connection: with a robot that serves one connection at a
-/// time and is serving the polls', an e-stop waiting on the command connection makes the
-/// poll connection give way, and reaches the robot within two seconds (without, not until
-/// the poll connection closes).
+/// The stop path wins the robot's connection: a robot that serves one connection at a time
+/// and is serving the polls' gets an e-stop at once, on the poll connection, which carries it
+/// too (without, not until the poll connection gave way, or closed).
 #[tokio::test(flavor = "current_thread")]
 async fn an_estop_gets_the_connection_of_a_robot_that_serves_one_at_a_time() {
     estop_gets_the_connection_of(robot_serving_one_connection_at_a_time).await;
+}
+
+/// A robot that serves one connection at a time, serving the polls', gets an e-stop at once
+/// on the poll connection, which confirms it; the e-stop written on the command connection
+/// still waits there, and the poll connection gives way to it, so that the robot takes the
+/// command connection up and motion can reach it later. Without, the confirmed e-stop left
+/// the poll connection in place, and the command connection unread for good.
+#[tokio::test(flavor = "current_thread")]
+async fn a_robot_serving_one_at_a_time_takes_the_command_connection_up_after_an_estop() {
+    let start = std::time::Instant::now();
+    let (addr, log, served) = robot_serving_one_connection_at_a_time(start);
+    let (after, taken_up) =
+        with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+            wait_taken_up(&log, 3000, &Request::Status).await;
+            let before = served.load(Ordering::SeqCst);
+            let after = estop_taken_up_after(shared, &log, start).await;
+            let taken_up = wait_until(3000, || served.load(Ordering::SeqCst) > before).await;
+            (after, taken_up)
+        })
+        .await;
+    assert!(
+        after.is_some_and(|after| after < STOP_BOUND),
+        "the e-stop reached the robot {after:?} s after the press"
+    );
+    assert!(taken_up, "the robot took another connection up: {log:?}");
 }
 
 /// A robot that serves one connection at a time, serving the command connection (which the
@@ -1052,19 +1157,46 @@ async fn a_robot_keeping_only_its_newest_connection_is_driven_on_one() {
 
 /// The stop path wins the connection of a robot that takes one client at a time, serving
 /// the polls' and closing every new command connection at once: the e-stop, written on each
-/// and read on none, has waited since the first, and the poll connection gives way.
+/// and read on none, goes on the poll connection too (and the poll connection gives way to
+/// the command connection's, which has waited since the first).
 #[tokio::test(flavor = "current_thread")]
 async fn an_estop_gets_the_connection_of_a_robot_that_takes_one_client_at_a_time() {
     estop_gets_the_connection_of(robot_taking_one_client_at_a_time).await;
 }
 
+/// An e-stop pressed while the command connection is being reopened goes on the poll
+/// connection at once, not at the next attempt, a quarter of a second later: here a robot
+/// that takes one client at a time, serving the polls', has just closed a command connection.
+#[tokio::test(flavor = "current_thread")]
+async fn an_estop_pressed_while_the_command_connection_reopens_goes_on_the_poll_connection() {
+    let start = std::time::Instant::now();
+    let (addr, log, made) = robot_taking_one_client_at_a_time(start);
+    // Attempts a second apart once the robot has closed a few.
+    let backoff = Backoff::new(Duration::from_millis(50), Duration::from_secs(1));
+    let after = with_app_links(&mut links(addr, backoff), &config(), async |shared| {
+        wait_taken_up(&log, 3000, &Request::Status).await;
+        sleep(2000).await;
+        let before = made.load(Ordering::SeqCst);
+        wait_until(3000, || made.load(Ordering::SeqCst) > before).await;
+        // The panel has seen the connection closed, and waits to try again: a stop pressed
+        // now ends the wait a quarter of a second after this attempt.
+        sleep(20).await;
+        estop_taken_up_after(shared, &log, start).await
+    })
+    .await;
+    assert!(
+        after.is_some_and(|after| after < 0.15),
+        "the e-stop reached the robot {after:?} s after the press: {log:?}"
+    );
+}
+
 /// Checks that an e-stop pressed while the scripted `robot` serves the poll connection
-/// reaches it within two seconds.
+/// reaches it within [`STOP_BOUND`].
 async fn estop_gets_the_connection_of(
-    robot: fn(std::time::Instant) -> (std::net::SocketAddr, Received),
+    robot: fn(std::time::Instant) -> (std::net::SocketAddr, Received, Arc<AtomicUsize>),
 ) {
     let start = std::time::Instant::now();
-    let (addr, log) = robot(start);
+    let (addr, log, _) = robot(start);
     let status_read = |log: &[(f64, Request)]| log.iter().any(|(_, r)| *r == Request::Status);
     let served_polls = async || {
         wait_taken_up(&log, 3000, &Request::Status).await;
@@ -1076,7 +1208,7 @@ async fn estop_gets_the_connection_of(
     );
     let estop = estops.first().copied();
     assert!(
-        estop.is_some_and(|after| after < 2.0),
+        estop.is_some_and(|after| after < STOP_BOUND),
         "the e-stop reached the robot {estop:?} s after the press"
     );
 }
@@ -2005,24 +2137,22 @@ async fn a_stop_pressed_while_waiting_to_reconnect_to_a_silent_robot_goes_out_at
         sleep(100).await;
         let pressed = sim.elapsed().as_secs_f64();
         press(shared, Button::Estop, true).await;
-        let estop = wait_for_command(&sim, 2000, pressed, 13)
+        wait_for_command(&sim, 2000, pressed, 13)
             .await
             .expect("e-stop sent");
         press(shared, Button::Estop, false).await;
+        // The poll connection, still open, may carry it too: the new command connection has
+        // not answered yet.
         let first = sim
             .requests()
             .into_iter()
-            .find(|e| e.t >= pressed && e.command == Some(13))
-            .expect("the e-stop in the log");
-        assert!(
-            Some(first.conn) > before,
-            "the e-stop was pressed while the command connection was closed"
-        );
+            .find(|e| e.t >= pressed && e.command == Some(13) && Some(e.conn) > before)
+            .expect("the e-stop on a new command connection");
         // Not even the pace of retries against a refusing robot: nothing refused here.
         assert!(
-            estop - pressed < STOP_RETRY.as_micros() as f64 / 1e6,
+            first.t - pressed < STOP_RETRY.as_micros() as f64 / 1e6,
             "the e-stop reached the robot {:.3} s after the button, during a 3 s backoff",
-            estop - pressed
+            first.t - pressed
         );
     })
     .await;

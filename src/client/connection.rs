@@ -453,9 +453,9 @@ impl<T: Transport> Connection<T> {
     }
 
     /// Gives up on request `id`: its answer, if it comes, will be unsolicited. Unless the
-    /// robot [passed it over](Connection::passed_over), it counts towards
+    /// robot passed it over (answered a request written after it), it counts towards
     /// [`SILENT_TIMEOUTS`] and [`SILENT_AFTER`].
-    fn give_up_on(&mut self, id: u16) -> Option<Sent> {
+    pub fn give_up_on(&mut self, id: u16) -> Option<Sent> {
         let sent = self.outstanding.remove(id)?;
         if self.passed_over(&sent) {
             if self.outstanding.is_empty() {
