@@ -353,6 +353,12 @@ struct StopsAside {
     zero_velocity: Option<Instant>,
 }
 
+/// The copies' requests, in statics: the poll loop's future then keeps a reference to the
+/// one it writes, not a [`Request`] (the largest message type, 720 bytes).
+static ESTOP: Request = Request::Motion(MotionCommand::SoftEmergencyStop);
+/// See [`ESTOP`].
+static ZERO_VELOCITY: Request = Request::Motion(MotionCommand::ZeroVelocity);
+
 impl StopsAside {
     /// Nothing set aside.
     const NONE: Self = StopsAside {
@@ -378,7 +384,7 @@ impl StopsAside {
 
     /// Takes the stops set aside that are still fresh at `now`, e-stop first; zero velocity
     /// only if `motion_held` is false. The rest are dropped.
-    fn take(&mut self, now: Instant, motion_held: bool) -> impl Iterator<Item = Request> {
+    fn take(&mut self, now: Instant, motion_held: bool) -> impl Iterator<Item = &'static Request> {
         let fresh = |at: Option<Instant>| {
             at.is_some_and(|at| now.saturating_duration_since(at) <= control::STALE_PRESS)
         };
@@ -386,10 +392,9 @@ impl StopsAside {
             estop,
             zero_velocity,
         } = core::mem::replace(self, Self::NONE);
-        let estop = fresh(estop).then_some(MotionCommand::SoftEmergencyStop);
-        let zero_velocity =
-            (fresh(zero_velocity) && !motion_held).then_some(MotionCommand::ZeroVelocity);
-        estop.into_iter().chain(zero_velocity).map(Request::Motion)
+        let estop = fresh(estop).then_some(&ESTOP);
+        let zero_velocity = (fresh(zero_velocity) && !motion_held).then_some(&ZERO_VELOCITY);
+        estop.into_iter().chain(zero_velocity)
     }
 }
 
@@ -993,7 +998,7 @@ impl App<'_> {
                 "the command connection is not answered yet: Type 2 Command {} on the poll connection too",
                 stop.command()
             );
-            conn.send(&stop).await?;
+            conn.send(stop).await?;
             if self.stop_copied.get().is_none() {
                 self.stop_copied.set(Some(Instant::now()));
             }
