@@ -45,8 +45,8 @@ use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Instant, Timer, with_timeout};
 
 use crate::client::{
-    ANSWER_OVERDUE, Answer, ClientError, Connection, Health, RobotClock, STABLE_AFTER, Sent,
-    Transport,
+    ANSWER_OVERDUE, Answer, ClientError, Connection, Health, RobotClock, SILENT_AFTER,
+    STABLE_AFTER, Sent, Transport,
 };
 use crate::config::{Cidr, Config, PollPeriods, RobotAddress};
 use crate::panel::indicators::{Faults, LinkState};
@@ -425,7 +425,8 @@ struct App<'a> {
     stops_aside: Cell<StopsAside>,
     /// When the poll connection first carried such a stop since the command connection was
     /// last answered: the original still waits there, and the poll connection gives way to
-    /// it as to a stop pending ([`App::stop_passed_over_by`]).
+    /// it as to a stop pending ([`App::stop_passed_over_by`]), for a while
+    /// ([`App::copy_waits`]).
     stop_copied: Cell<Option<Instant>>,
     /// Something for the command loop to send.
     wake_commands: Signal<NoopRawMutex, ()>,
@@ -867,7 +868,7 @@ impl App<'_> {
                 unserved = 0;
                 continue;
             }
-            giving_way &= self.panel(|p| p.stop_unanswered()) || self.stop_copied.get().is_some();
+            giving_way &= self.panel(|p| p.stop_unanswered()) || self.copy_waits(Instant::now());
             if giving_way {
                 // Until the command connection is answered (or the stop is no longer due):
                 // a robot serving one connection at a time then takes the command one.
@@ -1030,6 +1031,22 @@ impl App<'_> {
                 .stop_copied
                 .get()
                 .is_some_and(|copied| copied.saturating_add(ANSWER_OVERDUE) <= sent)
+    }
+
+    /// Whether a stop the poll connection carried too ([`App::stop_copied`]) still keeps it
+    /// away, having given way: until the command connection answers, for at most
+    /// [`SILENT_AFTER`] from the copy, and then no more for that copy. A robot that answers
+    /// polls and no motion at all, whose command connection is never answered, loses its
+    /// status for that long, not for good.
+    fn copy_waits(&self, now: Instant) -> bool {
+        let Some(copied) = self.stop_copied.get() else {
+            return false;
+        };
+        let waits = now < copied.saturating_add(SILENT_AFTER);
+        if !waits {
+            self.stop_copied.set(None);
+        }
+        waits
     }
 
     /// Counts the poll connection `conn`, silent or lost, in `unserved` if it never

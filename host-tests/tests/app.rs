@@ -642,6 +642,32 @@ fn robot_wedging(
     (addr, log, accepted)
 }
 
+/// A robot that reads motion commands (Type 2) and answers none, on any connection; it
+/// answers everything else as [`scripted_answer`] says, each connection on a thread of its
+/// own. What it received, with the time.
+fn robot_answering_no_motion(start: std::time::Instant) -> (std::net::SocketAddr, Received) {
+    scripted_robot(start, |listener, recorder| {
+        for stream in listener.incoming().take(100) {
+            let Ok(mut stream) = stream else { return };
+            let recorder = recorder.clone();
+            std::thread::spawn(move || {
+                let mut state = MotionState::StandingUp;
+                let mut decoder = FrameDecoder::new();
+                while let Some((id, request)) = read_request(&mut stream, &mut decoder) {
+                    recorder.record(request.clone());
+                    if matches!(request, Request::Motion(_)) {
+                        continue;
+                    }
+                    let response = scripted_answer(&request, &mut state);
+                    if stream.write_all(&answer(id, &response)).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+    })
+}
+
 /// A scripted robot's answer to `request`: a status with `MotionState` `state` (6 once an
 /// e-stop came), a perception poll with the way clear, a Type 2 with success and anything
 /// else with a Type 0.
@@ -905,6 +931,36 @@ async fn a_stop_goes_on_the_poll_connection_too_until_the_command_connection_ans
         );
     })
     .await;
+}
+
+/// A robot that answers polls and no motion at all never answers the command connection:
+/// the poll connection, having carried a release's zero velocity too, gives way to it for
+/// at most 2 s from the copy, and then polls again. Without that limit, the status was
+/// never read again after the first stop.
+#[tokio::test(flavor = "current_thread")]
+async fn a_robot_answering_no_motion_keeps_its_status_polled_after_a_stop() {
+    let start = std::time::Instant::now();
+    let (addr, log) = robot_answering_no_motion(start);
+    let released = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        wait_taken_up(&log, 3000, &Request::Status).await;
+        click(shared, Button::Forward).await;
+        let released = start.elapsed().as_secs_f64();
+        // The zero velocity goes out once more on the next command connection, after the
+        // first is given up on (about 2 s), and gets a copy of its own.
+        sleep(8000).await;
+        released
+    })
+    .await;
+    let log = log.lock().unwrap();
+    let last_status = log
+        .iter()
+        .filter(|(_, r)| *r == Request::Status)
+        .map(|(t, _)| t - released)
+        .fold(f64::MIN, f64::max);
+    assert!(
+        last_status > 6.0,
+        "the last status was polled {last_status:.3} s after the release: {log:?}"
+    );
 }
 
 /// Presses the e-stop and waits for the scripted robot whose log is `log` (its times from
