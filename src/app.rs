@@ -425,8 +425,7 @@ struct App<'a> {
     stops_aside: Cell<StopsAside>,
     /// When the poll connection first carried such a stop since the command connection was
     /// last answered: the original still waits there, and the poll connection gives way to
-    /// it as to a stop pending ([`App::stop_passed_over_by`]), for a while
-    /// ([`App::copy_waits`]).
+    /// it as to a stop pending ([`App::stop_passed_over_by`]), once.
     stop_copied: Cell<Option<Instant>>,
     /// Something for the command loop to send.
     wake_commands: Signal<NoopRawMutex, ()>,
@@ -843,7 +842,8 @@ impl App<'_> {
     async fn poll_loop<T: Transport>(&self, conn: &mut Connection<T>) -> ! {
         let mut retry_at = Instant::now();
         let mut followed = 0;
-        let mut giving_way = false;
+        // Since when the poll connection has given way to a stop, if it has.
+        let mut giving_way: Option<Instant> = None;
         // Poll connections in a row that ended without answering a poll.
         let mut unserved = 0;
         loop {
@@ -868,12 +868,20 @@ impl App<'_> {
                 unserved = 0;
                 continue;
             }
-            giving_way &= self.panel(|p| p.stop_unanswered()) || self.copy_waits(Instant::now());
-            if giving_way {
+            if let Some(since) = giving_way {
                 // Until the command connection is answered (or the stop is no longer due):
-                // a robot serving one connection at a time then takes the command one.
-                Timer::after(STOP_RETRY).await;
-                continue;
+                // a robot serving one connection at a time then takes the command one. At
+                // most SILENT_AFTER at a time: a robot that answers polls and no motion at
+                // all never answers there, and would otherwise have no status read again
+                // (nor an e-stop confirmed); a poll between two give-ways is.
+                let waits = self.panel(|p| p.stop_unanswered()) || self.stop_copied.get().is_some();
+                if waits && Instant::now() < since.saturating_add(SILENT_AFTER) {
+                    Timer::after(STOP_RETRY).await;
+                    continue;
+                }
+                giving_way = None;
+                // A copy makes the poll connection give way once.
+                self.stop_copied.set(None);
             }
             if !self
                 .ensure_connected(conn, ConnectionRole::Polls, &mut retry_at, &self.wake_polls)
@@ -903,7 +911,7 @@ impl App<'_> {
                         warn!(
                             "the robot answers polls but not the stop: the poll connection gives way"
                         );
-                        giving_way = true;
+                        giving_way = Some(Instant::now());
                         conn.disconnect().await;
                         self.connection(ConnectionRole::Polls, ConnectionState::Connecting);
                     }
@@ -1031,22 +1039,6 @@ impl App<'_> {
                 .stop_copied
                 .get()
                 .is_some_and(|copied| copied.saturating_add(ANSWER_OVERDUE) <= sent)
-    }
-
-    /// Whether a stop the poll connection carried too ([`App::stop_copied`]) still keeps it
-    /// away, having given way: until the command connection answers, for at most
-    /// [`SILENT_AFTER`] from the copy, and then no more for that copy. A robot that answers
-    /// polls and no motion at all, whose command connection is never answered, loses its
-    /// status for that long, not for good.
-    fn copy_waits(&self, now: Instant) -> bool {
-        let Some(copied) = self.stop_copied.get() else {
-            return false;
-        };
-        let waits = now < copied.saturating_add(SILENT_AFTER);
-        if !waits {
-            self.stop_copied.set(None);
-        }
-        waits
     }
 
     /// Counts the poll connection `conn`, silent or lost, in `unserved` if it never

@@ -934,32 +934,46 @@ async fn a_stop_goes_on_the_poll_connection_too_until_the_command_connection_ans
 }
 
 /// A robot that answers polls and no motion at all never answers the command connection:
-/// the poll connection, having carried a release's zero velocity too, gives way to it for
-/// at most 2 s from the copy, and then polls again. Without that limit, the status was
-/// never read again after the first stop.
+/// the poll connection, having carried a release's zero velocity too, gives way to it once,
+/// for at most 2 s. Without that limit, the status was never read again after the release.
 #[tokio::test(flavor = "current_thread")]
-async fn a_robot_answering_no_motion_keeps_its_status_polled_after_a_stop() {
+async fn a_robot_answering_no_motion_keeps_its_status_polled_after_a_release() {
+    status_polled_long_after(Button::Forward).await;
+}
+
+/// As [`a_robot_answering_no_motion_keeps_its_status_polled_after_a_release`], with an
+/// e-stop, which such a robot never confirms: the poll connection gives way to it 2 s at a
+/// time, and polls in between. Without that limit, it stayed away for good.
+#[tokio::test(flavor = "current_thread")]
+async fn a_robot_answering_no_motion_keeps_its_status_polled_after_an_estop() {
+    status_polled_long_after(Button::Estop).await;
+}
+
+/// Clicks `button` on a panel driving a robot that answers polls and no motion
+/// ([`robot_answering_no_motion`]), and checks that its status is still polled 6 to 8 s
+/// later.
+async fn status_polled_long_after(button: Button) {
     let start = std::time::Instant::now();
     let (addr, log) = robot_answering_no_motion(start);
-    let released = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+    let clicked = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
         wait_taken_up(&log, 3000, &Request::Status).await;
-        click(shared, Button::Forward).await;
-        let released = start.elapsed().as_secs_f64();
-        // The zero velocity goes out once more on the next command connection, after the
-        // first is given up on (about 2 s), and gets a copy of its own.
+        click(shared, button).await;
+        let clicked = start.elapsed().as_secs_f64();
+        // A zero velocity goes out once more on the next command connection, after the
+        // first is given up on (about 2 s); an e-stop repeats until the end.
         sleep(8000).await;
-        released
+        clicked
     })
     .await;
     let log = log.lock().unwrap();
     let last_status = log
         .iter()
         .filter(|(_, r)| *r == Request::Status)
-        .map(|(t, _)| t - released)
+        .map(|(t, _)| t - clicked)
         .fold(f64::MIN, f64::max);
     assert!(
         last_status > 6.0,
-        "the last status was polled {last_status:.3} s after the release: {log:?}"
+        "the last status was polled {last_status:.3} s after the click: {log:?}"
     );
 }
 
