@@ -503,7 +503,7 @@ impl App<'_> {
             // An e-stop the command connection cannot carry now (it is being reopened) goes
             // on the poll connection at once, not at the next connection attempt.
             if self.panel(|p| !p.commands_connected() && p.control().estop_unconfirmed()) {
-                self.set_aside(&Request::Motion(MotionCommand::SoftEmergencyStop));
+                self.set_aside(&ESTOP);
             }
             // At once: the console's save asks whether a button is held.
             self.publish_snapshot(Instant::now());
