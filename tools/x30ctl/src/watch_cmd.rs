@@ -4,7 +4,9 @@
 //! refresh is one plain line, or one JSON object with `--json`. A failed refresh is shown
 //! and the next one reconnects, so a robot that restarts or drops the connection does not
 //! end the watch (existing clients never reconnect: docs/protocol.md, "Mistakes of
-//! existing clients").
+//! existing clients"); a request whose connection the robot had closed after an earlier
+//! answer is asked again at once on a new one, so a robot that hangs up after each answer
+//! is watched too.
 
 use std::io::IsTerminal;
 use std::thread;
@@ -74,15 +76,25 @@ pub fn run(ctx: &Ctx, args: &WatchArgs) -> Result<(), Error> {
 
 /// Takes one snapshot, connecting first if needed.
 fn snapshot(ctx: &Ctx, conn: &mut Option<Connection>) -> Result<Snapshot, Error> {
-    let c = match conn {
-        Some(c) => c,
-        None => conn.insert(ctx.connect()?),
-    };
     Ok(Snapshot {
-        status: c.request(&Request::Status)?,
-        battery: c.request(&Request::Battery)?,
-        perception: c.request(&Request::Perception)?,
+        status: ask(ctx, conn, &Request::Status)?,
+        battery: ask(ctx, conn, &Request::Battery)?,
+        perception: ask(ctx, conn, &Request::Perception)?,
     })
+}
+
+/// Asks `request` on `conn`, connecting first if needed. A connection that had answered
+/// before and is found closed before this answer (a robot that hangs up after each
+/// answer, or one that restarted between refreshes) is replaced by a new one, and the
+/// request asked once more there: these queries change nothing on the robot.
+fn ask(ctx: &Ctx, conn: &mut Option<Connection>, request: &Request) -> Result<Answer, Error> {
+    if let Some(c) = conn.as_mut() {
+        match c.request(request) {
+            Err(Error::Closed { .. }) => {}
+            answered => return answered,
+        }
+    }
+    conn.insert(ctx.connect()?).request(request)
 }
 
 fn show(ctx: &Ctx, tty: bool, refresh: u64, result: &Result<Snapshot, Error>) {

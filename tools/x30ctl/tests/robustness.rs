@@ -69,6 +69,34 @@ fn drop_after_is_a_clear_connection_closed_error() {
     );
 }
 
+/// A robot that hangs up after an answer (here: it closes each connection at its second
+/// request, unanswered) is watched all the same: a request its connection was closed on is
+/// asked again at once on a new one. Without, every refresh failed.
+#[test]
+fn watch_asks_again_on_a_new_connection_what_a_robot_hung_up_on() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        drop_after: Some(2),
+        ..Faults::default()
+    });
+    let run = x30ctl(
+        &sim,
+        &["watch", "--count", "2", "--interval-ms", "10", "--json"],
+    );
+    let lines: Vec<&str> = run.stdout.lines().collect();
+    assert_eq!(lines.len(), 2, "{}", run.stdout);
+    for line in lines {
+        assert!(
+            ["\"status\"", "\"battery\"", "\"perception\""]
+                .iter()
+                .all(|item| line.contains(item))
+                && !line.contains("\"error\""),
+            "{line}"
+        );
+    }
+    run.expect_code(0);
+}
+
 #[test]
 fn garbage_before_each_frame_is_skipped() {
     let sim = sim(1.0);
