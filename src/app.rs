@@ -994,15 +994,11 @@ impl App<'_> {
         conn: &mut Connection<T>,
     ) -> Result<(), ClientError> {
         let mut aside = self.stops_aside.replace(StopsAside::NONE);
-        if aside.is_empty() {
+        if aside.is_empty() || !(conn.is_connected() && conn.answered()) {
             return Ok(());
         }
         let motion_held = self.panel(|p| p.control().active_motion().is_some());
-        let usable = conn.is_connected() && conn.answered();
         for stop in aside.take(Instant::now(), motion_held) {
-            if !usable {
-                continue;
-            }
             info!(
                 "the command connection is not answered yet: Type 2 Command {} on the poll connection too",
                 stop.command()

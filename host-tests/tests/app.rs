@@ -890,15 +890,9 @@ async fn a_stop_goes_on_the_poll_connection_too_until_the_command_connection_ans
     with_app(&sim, async |shared| {
         wait_connected(&sim).await;
         let connections_of = |since: f64, command: i32| {
-            let mut conns: Vec<u64> = sim
-                .requests()
-                .iter()
-                .filter(|e| e.t >= since && e.command == Some(command))
-                .map(|e| e.conn)
-                .collect();
-            conns.sort_unstable();
-            conns.dedup();
-            conns
+            connections(&sim.requests(), |e| {
+                e.t >= since && e.command == Some(command)
+            })
         };
         let (pressed, _) = estop_reaches_the_robot(&sim, shared, 2000, "idle panel").await;
         sleep(300).await;
@@ -2052,12 +2046,15 @@ async fn a_command_the_robot_never_answers_does_not_hold_up_motion() {
 
 /// How many connections carried Type 2 requests.
 fn command_connections(log: &[LogEntry]) -> usize {
-    let connections: std::collections::BTreeSet<_> = log
-        .iter()
-        .filter(|e| e.message_type == Some(2))
-        .map(|e| e.conn)
-        .collect();
-    connections.len()
+    connections(log, |e| e.message_type == Some(2)).len()
+}
+
+/// The connections that carried a request `which` picks.
+fn connections(
+    log: &[LogEntry],
+    which: impl Fn(&LogEntry) -> bool,
+) -> std::collections::BTreeSet<u64> {
+    log.iter().filter(|e| which(e)).map(|e| e.conn).collect()
 }
 
 /// Against a robot that never answers Type `ignored` and answers the rest: clicks `first`,

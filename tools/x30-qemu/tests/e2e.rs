@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use common::*;
 use x30_panel::proto::codes::{ErrorStatus, MotionState, NavOutcome, PointInfo};
 use x30_panel::proto::message::Request;
-use x30_sim::Simulator;
+use x30_sim::{LogEntry, Simulator};
 
 /// The Type 2 requests logged since `since` (simulator seconds): (time, Command).
 fn motions(sim: &Simulator, since: f64) -> Vec<(f64, i32)> {
@@ -342,6 +342,13 @@ fn docking(turn: &Turn, sim: &Simulator) -> Running {
     panel
 }
 
+/// Whether connection `conn` carried a status poll (1002) before `until` (simulator
+/// seconds) in `log`.
+fn polled_on(log: &[LogEntry], conn: u64, until: f64) -> bool {
+    log.iter()
+        .any(|e| e.t < until && e.conn == conn && e.message_type == Some(1002))
+}
+
 /// The simulator seconds of the first Type 2 request with `command` at or after `since`.
 fn first_command(sim: &Simulator, since: f64, command: i32) -> Option<f64> {
     motions(sim, since)
@@ -564,13 +571,9 @@ fn a_half_open_robot_gets_stops_at_once_and_the_panel_reconnects() {
     // its own.)
     let command_conns = || {
         let log = sim.requests();
-        let polled = |conn| {
-            log.iter()
-                .any(|e| e.conn == conn && e.message_type == Some(1002))
-        };
         let mut conns: Vec<_> = log
             .iter()
-            .filter(|e| e.message_type == Some(2) && !polled(e.conn))
+            .filter(|e| e.message_type == Some(2) && !polled_on(&log, e.conn, f64::INFINITY))
             .map(|e| e.conn)
             .collect();
         conns.sort_unstable();
@@ -645,15 +648,10 @@ fn an_estop_gets_the_connection_of_a_robot_that_serves_one_at_a_time() {
         log_text(&sim)
     );
     // The one written on the command connection, which had polled nothing before.
-    let polled_before = |conn| {
-        sim.requests()
-            .iter()
-            .any(|e| e.t < pressed && e.conn == conn && e.message_type == Some(1002))
-    };
     let estop_conn = || {
-        sim.requests()
-            .iter()
-            .find(|e| e.t >= pressed && e.command == Some(13) && !polled_before(e.conn))
+        let log = sim.requests();
+        log.iter()
+            .find(|e| e.t >= pressed && e.command == Some(13) && !polled_on(&log, e.conn, pressed))
             .map(|e| e.conn)
     };
     assert!(
