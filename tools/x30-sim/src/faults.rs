@@ -99,6 +99,9 @@ pub struct Faults {
     /// Close each connection when it has received this many frames (malformed ones
     /// included), without answering the last one.
     pub drop_after: Option<u64>,
+    /// Close each connection as soon as it has written an answer, leaving any other request
+    /// on it unanswered: a `robot_server` that serves one request a connection.
+    pub hang_up_after_answer: bool,
     /// Close a connection, without answering, when it receives a request of one of these
     /// Types: a `robot_server` that drops a client asking for a Type it does not know.
     pub hang_up_on: Vec<i32>,

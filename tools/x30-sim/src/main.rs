@@ -61,6 +61,10 @@ struct Cli {
     /// Close each connection on receiving its Nth frame, without answering it.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     drop_after: Option<u64>,
+    /// Close each connection once it has written an answer (a robot_server that serves one
+    /// request a connection).
+    #[arg(long)]
+    hang_up_after_answer: bool,
     /// Close a connection, without answering, when it receives a request of this Type
     /// (repeatable).
     #[arg(long = "hang-up-on", value_name = "TYPE")]
@@ -206,6 +210,7 @@ impl Cli {
                     .map(|ms| x30_sim::faults::after(Instant::now(), Duration::from_millis(ms))),
                 refuse_estops: self.refuse_estops,
                 drop_after: self.drop_after,
+                hang_up_after_answer: self.hang_up_after_answer,
                 hang_up_on: self.hang_up_on.clone(),
                 garbage: self.garbage,
                 empty_frames: self.empty_frames,

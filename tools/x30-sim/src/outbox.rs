@@ -12,7 +12,7 @@
 //! them a slow Type holds up no other.
 
 use std::io::{self, Write};
-use std::net::TcpStream;
+use std::net::{Shutdown, TcpStream};
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
 use std::time::{Duration, Instant};
@@ -121,6 +121,11 @@ pub(crate) fn run(shared: Arc<Shared>, mut stream: TcpStream, queue: Receiver<Ou
         if let Some(i) = waiting.iter().position(|o| due(o) <= now) {
             let outgoing = waiting.remove(i);
             if !faults.mute && send(&shared, &mut stream, &outgoing, &faults).is_err() {
+                return;
+            }
+            if faults.hang_up_after_answer {
+                // The reader sees the connection end too, and stops.
+                let _ = stream.shutdown(Shutdown::Both);
                 return;
             }
             continue;

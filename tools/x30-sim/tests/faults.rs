@@ -64,6 +64,28 @@ fn drop_after() {
 }
 
 #[test]
+fn hang_up_after_answer() {
+    let sim = start_faulty(Faults {
+        hang_up_after_answer: true,
+        ..Faults::default()
+    });
+    let mut client = Client::connect(sim.addr());
+    client.send(&Request::Status);
+    client.send(&Request::Battery);
+    let first = client.recv_within(ms(5000)).expect("the 1st was answered");
+    assert!(matches!(first.response, Response::Status(_)), "{first:?}");
+    assert!(
+        client.recv_within(ms(1000)).is_none(),
+        "the 2nd was not answered"
+    );
+    assert!(client.closed_within(ms(100)), "closed after the answer");
+    // A new connection is served the same way.
+    let mut client = Client::connect(sim.addr());
+    client.status();
+    assert!(client.closed_within(ms(5000)), "closed after the answer");
+}
+
+#[test]
 fn hang_up_on_a_type() {
     let sim = start_faulty(Faults {
         hang_up_on: vec![1008],

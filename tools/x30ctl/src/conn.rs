@@ -431,6 +431,34 @@ impl Connection {
         }))
     }
 
+    /// Whether the robot has closed the connection (a robot that hangs up after each
+    /// answer), found by a read that does not wait. What that read takes in is kept for the
+    /// next wait. A request written on a connection the robot closed would be lost, or fail
+    /// only when its answer is waited for.
+    pub fn closed_by_robot(&mut self) -> bool {
+        if self.stream.set_nonblocking(true).is_err() {
+            return false;
+        }
+        let spare = self.decoder.spare();
+        let read = if spare.is_empty() {
+            // Nothing can be read in (cannot happen: see `read_for`), so nothing is known.
+            Err(io::ErrorKind::WouldBlock.into())
+        } else {
+            self.stream.read(spare)
+        };
+        let closed = match read {
+            Ok(0) => true,
+            Ok(n) => {
+                self.decoder.commit(n);
+                false
+            }
+            Err(e) => is_disconnect(&e),
+        };
+        // Every other read and write waits, with a timeout of its own.
+        let _ = self.stream.set_nonblocking(false);
+        closed
+    }
+
     /// Reads what the robot sent into the decoder, waiting up to `slice` for it; the error
     /// names the Type `ty` of the answer being waited for.
     fn read_for(&mut self, slice: Duration, ty: i32) -> Result<(), Error> {

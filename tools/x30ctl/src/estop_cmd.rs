@@ -6,8 +6,10 @@
 //! one is answered. Refusals (ErrorCode 1), late answers and lost connections change only
 //! the report: a robot silent for [`SILENT`] gets a new connection, with twice the wait (up
 //! to [`MAX_DOUBLINGS`] times, as the panel's connections), and a connection that fails is
-//! tried again at the next repeat. The confirmation (exit 0), `--timeout-ms` without it
-//! (exit 3) or Ctrl-C (exit 130) end the repeats.
+//! tried again at the next repeat. A robot that hangs up after each answer gets each
+//! command on a new connection, and the status it hung up on after answering every
+//! Command 13 is asked again at once on another. The confirmation (exit 0), `--timeout-ms`
+//! without it (exit 3) or Ctrl-C (exit 130) end the repeats.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -92,16 +94,15 @@ impl Link {
     /// Sends Command 13, and a status request if none is due, connecting first if needed;
     /// whether the command went out. A failure is reported and drops the connection.
     fn send(&mut self, ctx: &Ctx, estop: &Request) -> bool {
-        if self.conn.is_none() {
-            match ctx.connect() {
-                Ok(conn) => self.conn = Some(conn),
-                Err(e) => {
-                    warn(&format!("{e}; trying again"));
-                    return false;
-                }
-            }
+        if let Some(conn) = self.conn.as_mut()
+            && conn.closed_by_robot()
+        {
+            // The robot hung up: what it answered before is shown, and the command goes
+            // on a new connection, where it is not lost.
+            self.take_estop_answers(ctx);
+            self.drop_connection();
         }
-        let Some(conn) = self.conn.as_mut() else {
+        let Some(conn) = self.connection(ctx) else {
             return false;
         };
         let message_id = match conn.send(estop) {
@@ -113,12 +114,32 @@ impl Link {
         };
         self.estops.push_back((message_id, Instant::now()));
         if self.status.is_none() {
-            match conn.send(&Request::Status) {
-                Ok(message_id) => self.status = Some((message_id, Instant::now())),
-                Err(e) => self.lose(&e),
-            }
+            self.ask_status(ctx);
         }
         true
+    }
+
+    /// The connection, connecting first if there is none; a failure to connect is
+    /// reported, and tried again at the next repeat.
+    fn connection(&mut self, ctx: &Ctx) -> Option<&mut Connection> {
+        if self.conn.is_none() {
+            match ctx.connect() {
+                Ok(conn) => self.conn = Some(conn),
+                Err(e) => warn(&format!("{e}; trying again")),
+            }
+        }
+        self.conn.as_mut()
+    }
+
+    /// Asks for the status, connecting first if needed.
+    fn ask_status(&mut self, ctx: &Ctx) {
+        let Some(conn) = self.connection(ctx) else {
+            return;
+        };
+        match conn.send(&Request::Status) {
+            Ok(message_id) => self.status = Some((message_id, Instant::now())),
+            Err(e) => self.lose(&e),
+        }
     }
 
     /// Takes the answers that come until `until` (or Ctrl-C): the motion state of a status
@@ -130,9 +151,28 @@ impl Link {
         until: Instant,
         interrupts: &Interrupts,
     ) -> Option<MotionState> {
-        let confirmed = self.take_status(until, interrupts);
+        let mut status = self.take_status(until, interrupts);
         // In the order they came: Command 13's answers before the status.
         self.take_estop_answers(ctx);
+        // Unless reading Command 13's answers dropped the connection already.
+        if let Err(e) = &status
+            && self.conn.is_some()
+        {
+            if matches!(e, Error::Closed { .. }) && self.estops.is_empty() {
+                // The robot hung up after answering every Command 13 on the connection (a
+                // robot that serves one request a connection): the status it left is
+                // asked again at once, on a new connection.
+                self.drop_connection();
+                self.ask_status(ctx);
+                status = self.take_status(until, interrupts);
+            }
+            if let Err(e) = &status
+                && self.conn.is_some()
+            {
+                self.lose(e);
+            }
+        }
+        let confirmed = status.ok().flatten();
         if let Some((_, answer)) = &confirmed
             && ctx.json
         {
@@ -161,32 +201,30 @@ impl Link {
     }
 
     /// Waits until `until` (or Ctrl-C) for the status asked for, if one is: its motion
-    /// state and the answer, if it confirms the e-stop.
+    /// state and the answer, if it confirms the e-stop. An error leaves the connection to
+    /// the caller.
     fn take_status(
         &mut self,
         until: Instant,
         interrupts: &Interrupts,
-    ) -> Option<(MotionState, Answer)> {
-        let (conn, (message_id, _)) = (self.conn.as_mut()?, self.status?);
-        match conn.poll(message_id, MessageType::Status, until, || {
+    ) -> Result<Option<(MotionState, Answer)>, Error> {
+        let (Some(conn), Some((message_id, _))) = (self.conn.as_mut(), self.status) else {
+            return Ok(None);
+        };
+        let answer = conn.poll(message_id, MessageType::Status, until, || {
             interrupts.count() > 0
-        }) {
-            Ok(Some(answer)) => {
-                self.status = None;
-                let Response::Status(status) = answer.response else {
-                    return None;
-                };
-                status
-                    .motion_state
-                    .is_soft_emergency_stop()
-                    .then_some((status.motion_state, answer))
-            }
-            Ok(None) => None,
-            Err(e) => {
-                self.lose(&e);
-                None
-            }
-        }
+        })?;
+        let Some(answer) = answer else {
+            return Ok(None);
+        };
+        self.status = None;
+        let Response::Status(status) = answer.response else {
+            return Ok(None);
+        };
+        Ok(status
+            .motion_state
+            .is_soft_emergency_stop()
+            .then_some((status.motion_state, answer)))
     }
 
     /// Prints the answers to Command 13 that are in already, waiting for none.

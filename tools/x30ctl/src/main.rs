@@ -49,6 +49,18 @@ impl Ctx {
         Connection::connect(&self.robot, self.connect_timeout, self.timeout)
     }
 
+    /// The connection in `conn`, unless there is none or the robot has closed it (a robot
+    /// that hangs up after each answer): then a new one, which takes its place.
+    pub fn reuse<'c>(&self, conn: &'c mut Option<Connection>) -> Result<&'c mut Connection, Error> {
+        let kept = conn
+            .take()
+            .and_then(|mut c| (!c.closed_by_robot()).then_some(c));
+        match kept {
+            Some(c) => Ok(conn.insert(c)),
+            None => Ok(conn.insert(self.connect()?)),
+        }
+    }
+
     /// Prints an answer in the chosen format.
     pub fn print(&self, answer: &Answer) {
         if self.json {

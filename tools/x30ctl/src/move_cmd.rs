@@ -8,7 +8,8 @@
 //! and gives up once one is `--timeout-ms` late; ticks missed are skipped, never sent in a
 //! burst. Whatever happens (the duration ends, Ctrl-C, an error), zero velocity (Command 6)
 //! is sent at once, whatever answers are still due, on a fresh connection if the old one
-//! failed.
+//! failed or the robot closed it. A robot that hangs up after each answer gets each
+//! command on a new connection.
 
 use std::collections::VecDeque;
 use std::thread;
@@ -108,10 +109,19 @@ pub fn run(ctx: &Ctx, args: &MoveArgs, interrupts: &Interrupts) -> Result<(), Er
             }
             // Nor blind: like the panel, no motion while an answer is overdue.
             Some(waited) if waited >= OVERDUE => sent.hold(),
-            _ => match c.send(&request) {
-                Ok(message_id) => sent.pending.push_back((message_id, Instant::now())),
-                Err(e) => break failed(&mut conn, e),
-            },
+            _ => {
+                // With every answer in, a connection the robot closed (a robot that hangs
+                // up after each answer) is replaced first: the command would be lost on it.
+                let open = if sent.pending.is_empty() {
+                    ctx.reuse(&mut conn)
+                } else {
+                    Ok(c)
+                };
+                match open.and_then(|c| c.send(&request)) {
+                    Ok(message_id) => sent.pending.push_back((message_id, Instant::now())),
+                    Err(e) => break failed(&mut conn, e),
+                }
+            }
         }
         // The next tick on the fixed grid that is still ahead, skipping any missed.
         let elapsed = start.elapsed().as_nanos();
@@ -255,7 +265,11 @@ fn zero_velocity(
             None => Ok(()),
         }
     };
-    if let Some(old) = conn.as_mut() {
+    // One the robot has closed is passed over: the stop would fail there only after it
+    // was written.
+    if let Some(old) = conn.as_mut()
+        && !old.closed_by_robot()
+    {
         match on(old) {
             Ok(()) => return Ok(()),
             Err(e @ (Error::Failed(_) | Error::Interrupted(_))) => return Err(e),

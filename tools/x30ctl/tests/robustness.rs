@@ -97,6 +97,65 @@ fn watch_asks_again_on_a_new_connection_what_a_robot_hung_up_on() {
     run.expect_code(0);
 }
 
+/// A robot that serves one request a connection: each command goes on a connection of its
+/// own, the robot's close found before it is written. Without, the second command went on
+/// the closed connection and the move failed (exit 3).
+#[test]
+fn move_drives_a_robot_that_hangs_up_after_each_answer() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        hang_up_after_answer: true,
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["move", "forward", "--duration", "1"])
+        .expect_code(0)
+        .stdout_has("4 command(s) acknowledged; zero velocity (Command 6) acknowledged");
+    let log = requests_of(&sim, 2, None);
+    let commands: Vec<_> = log.iter().map(|e| e.command).collect();
+    assert_eq!(
+        commands,
+        [Some(1), Some(1), Some(1), Some(1), Some(6)],
+        "{log:?}"
+    );
+    let mut conns: Vec<_> = log.iter().map(|e| e.conn).collect();
+    conns.dedup();
+    assert_eq!(conns.len(), log.len(), "one connection each: {log:?}");
+}
+
+/// The same robot answers Command 13 and hangs up on the status asked with it: the status
+/// is asked again at once on a new connection, and the next Command 13 goes on a new one
+/// too. Without, the status was never answered and the e-stop never confirmed (exit 3).
+#[test]
+fn estop_is_confirmed_by_a_robot_that_hangs_up_after_each_answer() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        hang_up_after_answer: true,
+        refuse_estops: 1,
+        ..Faults::default()
+    });
+    x30ctl(&sim, &["estop"])
+        .expect_code(0)
+        .stdout_has("failure (ErrorCode 1)")
+        .stdout_has(
+            "confirmed: the robot reports soft emergency stop (MotionState 6) after 2 command(s)",
+        );
+    let estops = requests_of(&sim, 2, Some(13));
+    assert_eq!(estops.len(), 2, "{estops:?}");
+    assert_ne!(estops[0].conn, estops[1].conn);
+    let sent = motion_times(&sim, 13);
+    let gap = sent[1] - sent[0];
+    assert!((0.15..=0.40).contains(&gap), "gap {gap} s in {sent:?}");
+    let statuses = requests_of(&sim, 1002, None);
+    let asked_again = statuses
+        .iter()
+        .filter(|s| estops.iter().all(|e| e.conn != s.conn));
+    assert_eq!(
+        asked_again.count(),
+        2,
+        "each e-stop's status asked again on a connection of its own: {statuses:?}"
+    );
+}
+
 #[test]
 fn garbage_before_each_frame_is_skipped() {
     let sim = sim(1.0);

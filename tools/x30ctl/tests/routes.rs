@@ -707,6 +707,28 @@ fn record_from_a_simulated_walk_writes_a_route_that_runs() {
     );
 }
 
+/// Each pose is read on a new connection from a robot that serves one request a
+/// connection; without, every other point failed on the connection it had closed.
+#[test]
+fn record_reads_each_pose_from_a_robot_that_hangs_up_after_each_answer() {
+    let sim = sim(1.0);
+    sim.set_faults(Faults {
+        hang_up_after_answer: true,
+        ..Faults::default()
+    });
+    let file = TempFile::new("hung-up.json");
+    let mut record = spawn_interactive(&sim, &["route", "record", &file.arg(), "--map-id", "2"]);
+    for at in 1..=3 {
+        record.send("");
+        record.expect_line(&format!("point {at} (Value {at})"), RUN_LIMIT);
+    }
+    record.send("q");
+    record
+        .finish(RUN_LIMIT)
+        .expect_code(0)
+        .stdout_has(&format!("route {}: 3 point(s) recorded", file.arg()));
+}
+
 #[test]
 fn record_refuses_to_overwrite_and_records_nothing_without_a_pose() {
     let sim = sim(1.0);

@@ -169,10 +169,7 @@ fn stdin_lines() -> Receiver<String> {
 
 /// The robot's status now, if it gives a pose worth recording; otherwise why not.
 fn pose(ctx: &Ctx, conn: &mut Option<Connection>) -> Result<RobotStatus, String> {
-    let c = match conn {
-        Some(c) => c,
-        None => conn.insert(ctx.connect().map_err(|e| e.to_string())?),
-    };
+    let c = ctx.reuse(conn).map_err(|e| e.to_string())?;
     let answer = c.request(&Request::Status).map_err(|e| {
         // The next point starts afresh: this connection may hold a late answer or be dead.
         *conn = None;

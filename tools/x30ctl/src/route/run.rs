@@ -480,21 +480,16 @@ impl StatusPoller {
         thread::spawn(move || {
             let mut conn: Option<Connection> = None;
             while !stopped.load(Ordering::SeqCst) {
-                let polled = match conn.take() {
-                    Some(c) => Ok(c),
-                    None => ctx.connect(),
-                }
-                .and_then(|mut c| c.request(&Request::NavStatus).map(|answer| (c, answer)));
-                if let Ok((
-                    c,
-                    Answer {
+                match ctx
+                    .reuse(&mut conn)
+                    .and_then(|c| c.request(&Request::NavStatus))
+                {
+                    Ok(Answer {
                         response: Response::NavStatus(state),
                         ..
-                    },
-                )) = polled
-                {
-                    *shared.lock().unwrap_or_else(PoisonError::into_inner) = Some(state);
-                    conn = Some(c);
+                    }) => *shared.lock().unwrap_or_else(PoisonError::into_inner) = Some(state),
+                    // The next poll starts afresh: this connection may hold a late answer.
+                    _ => conn = None,
                 }
                 thread::sleep(STATUS_POLL);
             }
