@@ -133,6 +133,8 @@ pub struct Config {
     pub web_pin: Option<WebPin>,
     /// The points the `patrol` button walks through; empty: no patrol.
     pub route: Route,
+    /// Whether the robot's indicator light shows a confirmed e-stop.
+    pub robot_light: bool,
 }
 
 impl Default for Config {
@@ -156,6 +158,7 @@ impl Default for Config {
             estop_input: EstopWiring::NormallyOpen,
             web_pin: None,
             route: Route::new(),
+            robot_light: false,
         }
     }
 }

@@ -22,8 +22,9 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration as StdDuration;
 use x30_panel::app::{self, Connections, Path, STOP_RETRY, Shared};
 use x30_panel::client::{Backoff, Connection};
-use x30_panel::config::Config;
+use x30_panel::config::{Config, DEFAULT_LIGHTS};
 use x30_panel::panel::NetworkState;
+use x30_panel::panel::control::ESTOP_LIGHT;
 use x30_panel::panel::{Button, ButtonEvent, Indicators, Led};
 use x30_panel::proto::codes::{
     CommandResult, GaitState, MotionGait, MotionState, ObsState, PointInfo, RequestErrorCode,
@@ -1352,6 +1353,61 @@ async fn estop_during_motion_goes_out_before_any_further_motion() {
         "no forward after the e-stop: {motion:?}"
     );
     assert_eq!(sim.snapshot().motion_state, MotionState::SoftEmergencyStop);
+}
+
+/// `robot-light` on: the robot's light turns red once a status confirmed the e-stop,
+/// written after Command 13 on the command connection, and back to the first preset once
+/// the latch is released.
+#[tokio::test(flavor = "current_thread")]
+async fn robot_light_shows_a_confirmed_estop_after_its_command_13() {
+    let sim = simulator(1.0);
+    let config = Config {
+        robot_light: true,
+        ..config()
+    };
+    let lights = |log: &[LogEntry]| -> Vec<LogEntry> {
+        log.iter()
+            .filter(|e| e.message_type == Some(1101))
+            .cloned()
+            .collect()
+    };
+    let pressed = with_app_config(&sim, &config, async |shared| {
+        wait_connected(&sim).await;
+        let pressed = sim.elapsed().as_secs_f64();
+        press(shared, Button::Estop, true).await;
+        assert!(
+            wait_for_log(&sim, 3000, |l| lights(l).len() == 1).await,
+            "red once confirmed"
+        );
+        press(shared, Button::Estop, false).await;
+        sim.robot(|r| r.set_motion_state(MotionState::LyingDown));
+        assert!(
+            wait_for_log(&sim, 3000, |l| lights(l).len() == 2).await,
+            "the preset after the unlock"
+        );
+        sleep(500).await;
+        pressed
+    })
+    .await;
+    let log = sim.requests();
+    let estop = log
+        .iter()
+        .find(|e| e.t >= pressed && e.command == Some(13))
+        .expect("Command 13 was sent");
+    let lit = lights(&log);
+    assert_eq!(lit.len(), 2, "once each: {lit:?}");
+    assert_eq!(lit[0].request, Some(Request::Light(ESTOP_LIGHT)));
+    assert_eq!(lit[1].request, Some(Request::Light(DEFAULT_LIGHTS[0])));
+    assert!(
+        lit[0].t > estop.t && lit[0].conn == estop.conn,
+        "{lit:?} {estop:?}"
+    );
+    // Not before a status said so.
+    assert!(
+        log.iter()
+            .any(|e| e.message_type == Some(1002) && e.t > estop.t && e.t < lit[0].t),
+        "{log:?}"
+    );
 }
 
 #[tokio::test(flavor = "current_thread")]

@@ -9,7 +9,7 @@ use x30_panel::client::Health;
 use x30_panel::config::{Config, DEFAULT_LIGHTS};
 use x30_panel::panel::ConnectionState;
 use x30_panel::panel::Outcome;
-use x30_panel::panel::control::{ESTOP_REPEAT, ONE_SHOT_QUEUE};
+use x30_panel::panel::control::{ESTOP_LIGHT, ESTOP_REPEAT, ONE_SHOT_QUEUE};
 use x30_panel::panel::{Button, Control, STALE_PRESS, TaskEnd, TaskOrder, succeeded};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::*;
@@ -1041,6 +1041,118 @@ fn light_cycles_through_the_presets() {
     let [off, green, amber, red] = DEFAULT_LIGHTS;
     assert_eq!(lights, [green, amber, red, off, green]);
     assert_eq!(red.effect, LightEffect::Breathing);
+}
+
+// The robot's light (`robot-light`).
+
+const ESTOP_LIT: Request = Request::Light(ESTOP_LIGHT);
+
+/// A connected control with `robot-light` on, its e-stop pressed and sent at 0, the
+/// button still down.
+fn latched_with_robot_light() -> Control {
+    let mut c = connected_with(&Config {
+        robot_light: true,
+        ..Config::default()
+    });
+    c.press(Button::Estop, 0);
+    assert_eq!(drain(&mut c, at(0)), [ESTOP]);
+    c
+}
+
+#[test]
+fn robot_light_turns_red_once_the_estop_is_confirmed_and_back_when_it_unlocks() {
+    let mut c = latched_with_robot_light();
+    // Not before the robot confirms: the e-stop repeats alone until then.
+    assert_eq!(run(&mut c, at(0), at(500)).len(), 2, "e-stops only");
+    c.robot_motion_state(MotionState::SoftEmergencyStop);
+    assert_eq!(
+        c.next_deadline(),
+        Some(Instant::MIN),
+        "the light is due at once"
+    );
+    assert_eq!(drain(&mut c, at(510)), [ESTOP_LIT]);
+    // Once: its answer or not, it is not sent again while the latch holds.
+    c.light_answered(Outcome::Succeeded);
+    assert_eq!(run(&mut c, at(510), at(2000)), []);
+    c.release(Button::Estop, 2000);
+    c.robot_motion_state(MotionState::LyingDown);
+    assert!(!c.motion_locked());
+    assert_eq!(drain(&mut c, at(2100)), [light(0)], "back to the preset");
+    c.light_answered(Outcome::Succeeded);
+    assert_eq!(run(&mut c, at(2100), at(3000)), []);
+}
+
+#[test]
+fn robot_light_is_off_by_default() {
+    let mut c = latched();
+    c.robot_motion_state(MotionState::SoftEmergencyStop);
+    c.release(Button::Estop, 100);
+    c.robot_motion_state(MotionState::LyingDown);
+    assert_eq!(run(&mut c, at(0), at(1000)), [], "no light written");
+}
+
+#[test]
+fn robot_light_never_goes_ahead_of_a_stop_motion_or_a_press() {
+    let mut c = latched_with_robot_light();
+    c.robot_motion_state(MotionState::SoftEmergencyStop);
+    c.press(Button::Stop, 100);
+    c.press(Button::LieDown, 100);
+    assert_eq!(drain(&mut c, at(100)), [ZERO, LIE_DOWN, ESTOP_LIT]);
+    c.light_answered(Outcome::Succeeded);
+    // Held motion after the unlock: the preset waits for the release's zero velocity.
+    c.release(Button::Estop, 200);
+    c.robot_motion_state(MotionState::LyingDown);
+    c.press(Button::Forward, 200);
+    assert_eq!(drain(&mut c, at(200)), [FORWARD]);
+    assert_eq!(drain(&mut c, at(450)), [FORWARD]);
+    c.release(Button::Forward, 500);
+    assert_eq!(drain(&mut c, at(500)), [ZERO, light(0)]);
+}
+
+#[test]
+fn robot_light_the_light_button_picks_the_preset_shown_after_the_estop() {
+    let mut c = latched_with_robot_light();
+    c.robot_motion_state(MotionState::SoftEmergencyStop);
+    assert_eq!(drain(&mut c, at(10)), [ESTOP_LIT]);
+    c.light_answered(Outcome::Succeeded);
+    // Red stays while the latch holds; the press chooses what comes after.
+    c.press(Button::Light, 100);
+    assert_eq!(drain(&mut c, at(100)), []);
+    c.release(Button::Estop, 200);
+    c.robot_motion_state(MotionState::LyingDown);
+    assert_eq!(drain(&mut c, at(200)), [light(1)]);
+}
+
+#[test]
+fn robot_light_refused_or_hung_up_on_is_not_sent_again_until_a_save() {
+    let refused = |c: &mut Control| c.light_answered(Outcome::Failed);
+    let hung_up = |c: &mut Control| {
+        c.connection(ConnectionState::Connecting);
+        c.connection(ConnectionState::Open);
+        drain(c, at(20));
+    };
+    for (name, give_up) in [
+        ("refused", &refused as &dyn Fn(&mut Control)),
+        ("hung up", &hung_up),
+    ] {
+        let mut c = latched_with_robot_light();
+        c.robot_motion_state(MotionState::SoftEmergencyStop);
+        assert_eq!(drain(&mut c, at(10)), [ESTOP_LIT], "{name}");
+        give_up(&mut c);
+        c.release(Button::Estop, 100);
+        c.robot_motion_state(MotionState::LyingDown);
+        assert_eq!(
+            run(&mut c, at(100), at(1000)),
+            [],
+            "{name}: no preset after"
+        );
+        // Saving the setting again tries once more.
+        c.reconfigure(&Config {
+            robot_light: true,
+            ..Config::default()
+        });
+        assert_eq!(drain(&mut c, at(1000)), [light(0)], "{name}");
+    }
 }
 
 #[test]

@@ -181,11 +181,17 @@ fn only_the_robot_answering_the_zero_velocity_spares_it_a_second_one_after_an_ou
     assert_eq!(commands(&mut p, at(100)), [ZERO]);
     // The answer to the motion before it says nothing about the zero velocity.
     let forward = MotionCommandCode::Forward;
-    p.command_answered(Ok(&answered(forward, CommandResult::Success)));
+    p.command_answered(
+        MessageType::Motion,
+        Ok(&answered(forward, CommandResult::Success)),
+    );
     assert_eq!(outage(&mut p, 200), [ZERO]);
     // Refused or not, the robot read it.
     let code = MotionCommandCode::ZeroVelocity;
-    p.command_answered(Ok(&answered(code, CommandResult::Failure)));
+    p.command_answered(
+        MessageType::Motion,
+        Ok(&answered(code, CommandResult::Failure)),
+    );
     assert_eq!(outage(&mut p, 1000), []);
 }
 
@@ -335,7 +341,7 @@ fn command_answers_show_on_the_fault_led() {
     let mut p = online();
     answer(&mut p, status(), 0);
     let fault = |p: &Panel| p.indicators(at(10)).fault;
-    p.command_answered(Err(&ClientError::Timeout));
+    p.command_answered(MessageType::Motion, Err(&ClientError::Timeout));
     assert_eq!(fault(&p), Led::Blink, "no answer");
     let ack = |result| {
         Response::Motion(
@@ -346,17 +352,23 @@ fn command_answers_show_on_the_fault_led() {
             },
         )
     };
-    p.command_answered(Ok(&ack(CommandResult::Success)));
+    p.command_answered(MessageType::Motion, Ok(&ack(CommandResult::Success)));
     assert_eq!(fault(&p), Led::Off);
-    p.command_answered(Ok(&ack(CommandResult::Failure)));
+    p.command_answered(MessageType::Motion, Ok(&ack(CommandResult::Failure)));
     assert_eq!(fault(&p), Led::Blink, "refused");
-    p.command_answered(Ok(&Response::CancelNav(CommandAck {
-        result: CommandResult::Success,
-    })));
+    p.command_answered(
+        MessageType::CancelNav,
+        Ok(&Response::CancelNav(CommandAck {
+            result: CommandResult::Success,
+        })),
+    );
     assert_eq!(fault(&p), Led::Off);
-    p.command_answered(Ok(&Response::RequestError(RequestError {
-        code: RequestErrorCode::ParseFailed,
-    })));
+    p.command_answered(
+        MessageType::Motion,
+        Ok(&Response::RequestError(RequestError {
+            code: RequestErrorCode::ParseFailed,
+        })),
+    );
     assert_eq!(fault(&p), Led::Blink, "Type 0");
 }
 

@@ -195,6 +195,16 @@ fn network_keys() {
 }
 
 #[test]
+fn robot_light_is_a_switch_of_its_own_and_off_by_default() {
+    assert!(!Config::default().robot_light);
+    let c = with(Key::RobotLight, "yes").unwrap();
+    assert!(c.robot_light && c.dhcp, "{c:?}");
+    let c = with(Key::Dhcp, "off").unwrap();
+    assert!(!c.robot_light && !c.dhcp, "{c:?}");
+    assert_eq!(with(Key::RobotLight, "red"), Err(Invalid(Key::RobotLight)));
+}
+
+#[test]
 fn periods_within_their_ranges() {
     let c = with(Key::Repeat, "333").unwrap();
     assert_eq!(c.motion_repeat, Duration::from_millis(333));
@@ -341,6 +351,7 @@ fn every_value_reads_back_as_written() {
         (Key::Debounce, "30"),
         (Key::EstopInput, "nc"),
         (Key::WebPin, "2468"),
+        (Key::RobotLight, "1"),
     ];
     assert_eq!(values.len(), Key::ALL.len(), "every key is covered");
     for (key, value) in values {

@@ -39,6 +39,12 @@
 //!   with a fault blink, and it never resumes by itself after an outage. Without a route it
 //!   only blinks the fault LED.
 //! - **Gait** cycles from the robot's reported `GaitState`, not from a local counter.
+//! - **The robot's light** (setting `robot-light`, off by default) turns steady red
+//!   ([`ESTOP_LIGHT`]) once the robot has confirmed the panel's e-stop, and back to the
+//!   `light` button's preset when the latch is released. It is the last thing written, and
+//!   only with no stop due, no motion held and no press waiting, so it never goes ahead of
+//!   any of them; a robot that refuses it, leaves it unanswered, or drops the connection
+//!   before answering it is not sent another until settings are saved again.
 
 use embassy_time::{Duration, Instant};
 use heapless::{Deque, Vec};
@@ -48,7 +54,9 @@ use super::buttons::{Button, ButtonEvent};
 use super::next_after;
 use crate::client::{ClientError, Health};
 use crate::config::{Config, LightPresets, MotionSpeeds, Route};
-use crate::proto::codes::{GaitState, LocalizationResult, MotionGait, MotionState, NavOutcome};
+use crate::proto::codes::{
+    GaitState, LightEffect, LocalizationResult, MotionGait, MotionState, NavOutcome,
+};
 use crate::proto::message::{
     Light, MotionCommand, NavPoint, NavResult, NavTask, Request, Response,
 };
@@ -58,6 +66,15 @@ pub const STALE_PRESS: Duration = Duration::from_millis(300);
 
 /// How often a latched e-stop is sent again until the robot confirms it.
 pub const ESTOP_REPEAT: Duration = Duration::from_millis(250);
+
+/// What the robot's light shows while the panel's e-stop is confirmed (`robot-light`).
+pub const ESTOP_LIGHT: Light = Light {
+    red: 255,
+    green: 0,
+    blue: 0,
+    effect: LightEffect::Steady,
+    brightness: 100,
+};
 
 /// How many one-shot presses may wait to go out; one beyond is dropped (and shown).
 pub const ONE_SHOT_QUEUE: usize = 4;
@@ -218,6 +235,22 @@ impl Estop {
     }
 }
 
+/// The robot's light as `robot-light` drives it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+struct RobotLight {
+    /// Whether the setting is on.
+    on: bool,
+    /// Whether [`ESTOP_LIGHT`] was the last light written (the robot shows it, as far as
+    /// the panel knows).
+    estop_shown: bool,
+    /// Whether a light written for the setting waits for its answer.
+    unanswered: bool,
+    /// Whether the robot refused one, left it unanswered, or the connection dropped before
+    /// its answer: no more until settings are saved again.
+    given_up: bool,
+}
+
 /// The control state machine; see the module docs for its rules.
 #[derive(Debug, Clone)]
 pub struct Control {
@@ -253,6 +286,8 @@ pub struct Control {
     task_ids: u32,
     /// Index of the light preset last sent (the first preset, "off", at start).
     light: usize,
+    /// The robot's light as `robot-light` drives it.
+    robot_light: RobotLight,
     /// When the last command went out.
     last_sent: Option<Instant>,
     /// Whether the last command failed or a press was dropped.
@@ -269,6 +304,9 @@ impl Control {
         // A save is refused while a task runs, so no patrol walks the old route.
         self.route = config.route.clone();
         self.repeat = config.motion_repeat;
+        // A save tries a light the robot refused again.
+        self.robot_light.on = config.robot_light;
+        self.robot_light.given_up = false;
     }
 
     /// A control state machine with the configured speeds, light presets, dock point and
@@ -297,6 +335,12 @@ impl Control {
             task: Task::Idle,
             task_ids: 0,
             light: 0,
+            robot_light: RobotLight {
+                on: config.robot_light,
+                estop_shown: false,
+                unanswered: false,
+                given_up: false,
+            },
             last_sent: None,
             last_failed: false,
         }
@@ -379,6 +423,13 @@ impl Control {
             // A latched e-stop goes before anything else on the new connection.
             self.estop.due = Instant::MIN;
         } else {
+            if self.robot_light.unanswered {
+                // The robot may have hung up on the light (a Type it does not serve):
+                // another would cost the command connection again.
+                warn!("robot light: connection lost before its answer; no more sent");
+                self.robot_light.unanswered = false;
+                self.robot_light.given_up = true;
+            }
             // The release that should stop the robot may be lost with the connection: never
             // written while motion was commanded, or written to a robot that stopped reading
             // (unanswered). Zero velocity after the outage is no replayed press: stopping is
@@ -418,6 +469,7 @@ impl Control {
         let request = self.next_stop(now).or_else(|| {
             self.next_motion(now, motion_allowed)
                 .or_else(|| self.next_one_shot(now))
+                .or_else(|| self.next_robot_light())
         })?;
         self.last_sent = Some(now);
         Some(request)
@@ -471,6 +523,44 @@ impl Control {
         None
     }
 
+    /// The light `robot-light` wants written, if it differs from what the robot was last
+    /// sent: [`ESTOP_LIGHT`] or the `light` button's preset. Only with nothing else due and
+    /// no motion held, one at a time, and never again once given up.
+    fn robot_light_due(&self) -> Option<Light> {
+        let light = self.robot_light;
+        let estop = light.on && !light.given_up && self.estop.latched && self.estop.confirmed;
+        let idle = !self.stop_pending() && self.next_repeat.is_none() && self.one_shots.is_empty();
+        if light.given_up || estop == light.estop_shown || light.unanswered || !idle {
+            return None;
+        }
+        if estop {
+            Some(ESTOP_LIGHT)
+        } else {
+            self.lights.get(self.light).copied()
+        }
+    }
+
+    /// The light due for `robot-light` ([`Control::robot_light_due`]).
+    fn next_robot_light(&mut self) -> Option<Request> {
+        let light = self.robot_light_due()?;
+        self.robot_light.estop_shown = light == ESTOP_LIGHT;
+        self.robot_light.unanswered = true;
+        Some(Request::Light(light))
+    }
+
+    /// The answer to a light (1101), or none: one written for `robot-light` that failed
+    /// ends them.
+    pub fn light_answered(&mut self, outcome: Outcome) {
+        if !self.robot_light.unanswered {
+            return;
+        }
+        self.robot_light.unanswered = false;
+        if outcome == Outcome::Failed {
+            warn!("robot light: refused by the robot; no more sent");
+            self.robot_light.given_up = true;
+        }
+    }
+
     /// Whether a press at `pressed` may still go out at `now`; if not, it is dropped and
     /// shown as failed.
     fn fresh(&mut self, pressed: Instant, now: Instant, what: &str) -> bool {
@@ -492,7 +582,11 @@ impl Control {
         if !self.connected {
             return None;
         }
-        if self.zero_velocity.due() || self.cancel.is_some() || !self.one_shots.is_empty() {
+        if self.zero_velocity.due()
+            || self.cancel.is_some()
+            || !self.one_shots.is_empty()
+            || self.robot_light_due().is_some()
+        {
             return Some(Instant::MIN);
         }
         let estop = self.estop.unconfirmed().then_some(self.estop.due);
@@ -796,6 +890,11 @@ impl Control {
         let Some(index) = (self.light + 1).checked_rem(self.lights.len()) else {
             return;
         };
+        if self.robot_light.estop_shown {
+            // The robot shows the e-stop: the preset is shown when the latch is released.
+            self.light = index;
+            return;
+        }
         if let Some(&light) = self.lights.get(index)
             && self.push(OneShot::Light(light), at)
         {

@@ -260,8 +260,13 @@ impl Panel {
         request
     }
 
-    /// A command's answer, or why there is none (timeout, connection lost, Type 0).
-    pub fn command_answered(&mut self, answer: Result<&Response, &ClientError>) {
+    /// The answer to a command of Type `request`, or why there is none (timeout,
+    /// connection lost, Type 0).
+    pub fn command_answered(
+        &mut self,
+        request: MessageType,
+        answer: Result<&Response, &ClientError>,
+    ) {
         let outcome = Outcome::of(answer);
         match answer {
             Err(e) => warn!("command failed: {:?}", e),
@@ -269,6 +274,9 @@ impl Panel {
             Ok(_) => {}
         }
         self.control.command_answered(outcome);
+        if request == MessageType::Light {
+            self.control.light_answered(outcome);
+        }
         if let Ok(Response::Motion(MotionCommandCode::ZeroVelocity, _)) = answer {
             self.control.zero_velocity_answered();
         }

@@ -25,8 +25,9 @@
 //! | `debounce-ms` | `X30_DEBOUNCE_MS` | `15` | how long a button's level must be stable, 1..=100 |
 //! | `estop-input` | `X30_ESTOP_INPUT` | `no` | `no`: normally open; `nc`: normally closed (a broken wire reads as pressed) |
 //! | `web-pin` | `X30_WEB_PIN` | `none` | 4–8 digits that allow changing settings from the web page |
+//! | `robot-light` | `X30_ROBOT_LIGHT` | `0` | `1`: the robot's indicator light turns steady red while the panel's e-stop is latched and confirmed, and back to the `light` button's preset when it unlocks (a robot that refuses it is sent no more until the next save); `0`: only the `light` button sets it |
 //!
-//! A saved `robot`, speed, preset, dock point or period takes effect at once; `dhcp`, `ip`,
+//! A saved `robot`, speed, preset, dock point, period or `robot-light` takes effect at once; `dhcp`, `ip`,
 //! `gateway`, `debounce-ms` and `estop-input` at the next start, since the board sets its
 //! network and buttons up once.
 //!
@@ -464,6 +465,15 @@ impl Key {
         })
     }
 
+    /// The switch this key sets in `config`, for a key of [`Syntax::Switch`].
+    fn switch(self, config: &mut Config) -> Option<&mut bool> {
+        match self {
+            Self::Dhcp => Some(&mut config.dhcp),
+            Self::RobotLight => Some(&mut config.robot_light),
+            _ => None,
+        }
+    }
+
     /// Sets this key in `config` from `text` (surrounding whitespace ignored); on error
     /// `config` is unchanged.
     pub fn apply(self, config: &mut Config, text: &str) -> Result<(), Invalid> {
@@ -471,7 +481,9 @@ impl Key {
         let invalid = Invalid(self);
         match self.syntax() {
             Syntax::Robot => config.robot = parse_robot(text).ok_or(invalid)?,
-            Syntax::Switch => config.dhcp = parse_switch(text).ok_or(invalid)?,
+            Syntax::Switch => {
+                *self.switch(config).ok_or(invalid)? = parse_switch(text).ok_or(invalid)?
+            }
             Syntax::Cidr => config.ip = optional(text, parse_cidr).ok_or(invalid)?,
             Syntax::Ipv4 => config.gateway = optional(text, parse_ipv4).ok_or(invalid)?,
             Syntax::Speed { max } => {
@@ -507,7 +519,10 @@ impl Key {
                 write_ipv4(out, config.robot.ip)?;
                 write!(out, ":{}", config.robot.port)
             }
-            Syntax::Switch => out.write_str(if config.dhcp { "1" } else { "0" }),
+            Syntax::Switch => {
+                let on = self.switch(&mut config.clone()).map(|on| *on);
+                out.write_str(if on.ok_or(fmt::Error)? { "1" } else { "0" })
+            }
             Syntax::Cidr => write_optional(out, config.ip.as_ref(), |out, ip| {
                 write_ipv4(out, ip.address)?;
                 write!(out, "/{}", ip.prefix_len)

@@ -179,6 +179,9 @@ keys! {
     /// The web page's PIN for changing settings.
     WebPin = 20, "web-pin", "X30_WEB_PIN", Syntax::Pin,
         "4 to 8 digits, or none (the web page is read-only)";
+    /// Whether the robot's indicator light shows a confirmed e-stop.
+    RobotLight = 21, "robot-light", "X30_ROBOT_LIGHT", Syntax::Switch,
+        "1 (the robot's light turns red while its e-stop is confirmed) or 0 (only the light button sets it)";
 }
 
 impl Key {
