@@ -528,7 +528,7 @@ impl Control {
     /// no motion held, one at a time, and never again once given up.
     fn robot_light_due(&self) -> Option<Light> {
         let light = self.robot_light;
-        let estop = light.on && !light.given_up && self.estop.latched && self.estop.confirmed;
+        let estop = light.on && self.estop.latched && self.estop.confirmed;
         let idle = !self.stop_pending() && self.next_repeat.is_none() && self.one_shots.is_empty();
         if light.given_up || estop == light.estop_shown || light.unanswered || !idle {
             return None;
