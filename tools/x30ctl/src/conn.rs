@@ -439,24 +439,28 @@ impl Connection {
         if self.stream.set_nonblocking(true).is_err() {
             return false;
         }
-        let spare = self.decoder.spare();
-        let read = if spare.is_empty() {
-            // Nothing can be read in (cannot happen: see `read_for`), so nothing is known.
-            Err(io::ErrorKind::WouldBlock.into())
-        } else {
-            self.stream.read(spare)
-        };
-        let closed = match read {
-            Ok(0) => true,
-            Ok(n) => {
-                self.decoder.commit(n);
-                false
-            }
+        let closed = match self.read_into_decoder() {
+            Ok(open) => !open,
             Err(e) => is_disconnect(&e),
         };
         // Every other read and write waits, with a timeout of its own.
         let _ = self.stream.set_nonblocking(false);
         closed
+    }
+
+    /// Reads what the robot sent into the decoder, as the stream's mode and timeout allow:
+    /// `Ok(false)` when the robot has closed the connection.
+    fn read_into_decoder(&mut self) -> io::Result<bool> {
+        let spare = self.decoder.spare();
+        if spare.is_empty() {
+            // Cannot happen (the decoder skips frames that would not fit), but an empty
+            // read buffer would look like a closed connection.
+            self.decoder.clear();
+            return Ok(true);
+        }
+        let n = self.stream.read(spare)?;
+        self.decoder.commit(n);
+        Ok(n > 0)
     }
 
     /// Reads what the robot sent into the decoder, waiting up to `slice` for it; the error
@@ -466,22 +470,12 @@ impl Connection {
         let _ = self
             .stream
             .set_read_timeout(Some(slice.max(Duration::from_millis(1))));
-        let spare = self.decoder.spare();
-        if spare.is_empty() {
-            // Cannot happen (the decoder skips frames that would not fit), but an empty
-            // read buffer would look like a closed connection.
-            self.decoder.clear();
-            return Ok(());
-        }
-        match self.stream.read(spare) {
-            Ok(0) => Err(Error::Closed {
+        match self.read_into_decoder() {
+            Ok(true) => Ok(()),
+            Ok(false) => Err(Error::Closed {
                 message_type: ty,
                 source: None,
             }),
-            Ok(n) => {
-                self.decoder.commit(n);
-                Ok(())
-            }
             Err(e)
                 if matches!(
                     e.kind(),
