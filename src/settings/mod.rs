@@ -428,6 +428,25 @@ impl Config {
     }
 }
 
+/// One value's place in a [`Config`], to read it from a shared one and to set it in a
+/// mutable one: a key names it once for both.
+struct Field<T: 'static> {
+    /// The value in a config being read.
+    value: fn(&Config) -> &T,
+    /// The value in a config being set.
+    place: fn(&mut Config) -> &mut T,
+}
+
+/// The [`Field`] at `config.$path`.
+macro_rules! field {
+    ($($path:ident).+) => {
+        Field {
+            value: |config| &config.$($path).+,
+            place: |config| &mut config.$($path).+,
+        }
+    };
+}
+
 impl Key {
     /// The direction of a speed key.
     pub const fn direction(self) -> Option<Direction> {
@@ -451,27 +470,26 @@ impl Key {
             .unwrap_or(Self::SpeedForward)
     }
 
-    /// The period a milliseconds key sets in `config`.
-    fn period(self, config: &mut Config) -> Option<&mut Duration> {
-        let p = &mut config.polls;
+    /// Where in a [`Config`] a milliseconds key keeps its period.
+    fn period(self) -> Option<Field<Duration>> {
         Some(match self {
-            Self::PollStatus => &mut p.status,
-            Self::PollBattery => &mut p.battery,
-            Self::PollMotors => &mut p.motor_temperatures,
-            Self::PollNav => &mut p.nav_status,
-            Self::Repeat => &mut config.motion_repeat,
-            Self::Debounce => &mut config.debounce,
+            Self::PollStatus => field!(polls.status),
+            Self::PollBattery => field!(polls.battery),
+            Self::PollMotors => field!(polls.motor_temperatures),
+            Self::PollNav => field!(polls.nav_status),
+            Self::Repeat => field!(motion_repeat),
+            Self::Debounce => field!(debounce),
             _ => return None,
         })
     }
 
-    /// The switch this key sets in `config`, for a key of [`Syntax::Switch`].
-    fn switch(self, config: &mut Config) -> Option<&mut bool> {
-        match self {
-            Self::Dhcp => Some(&mut config.dhcp),
-            Self::RobotLight => Some(&mut config.robot_light),
-            _ => None,
-        }
+    /// Where in a [`Config`] a key of [`Syntax::Switch`] keeps its switch.
+    fn switch(self) -> Option<Field<bool>> {
+        Some(match self {
+            Self::Dhcp => field!(dhcp),
+            Self::RobotLight => field!(robot_light),
+            _ => return None,
+        })
     }
 
     /// Sets this key in `config` from `text` (surrounding whitespace ignored); on error
@@ -482,7 +500,8 @@ impl Key {
         match self.syntax() {
             Syntax::Robot => config.robot = parse_robot(text).ok_or(invalid)?,
             Syntax::Switch => {
-                *self.switch(config).ok_or(invalid)? = parse_switch(text).ok_or(invalid)?
+                *(self.switch().ok_or(invalid)?.place)(config) =
+                    parse_switch(text).ok_or(invalid)?
             }
             Syntax::Cidr => config.ip = optional(text, parse_cidr).ok_or(invalid)?,
             Syntax::Ipv4 => config.gateway = optional(text, parse_ipv4).ok_or(invalid)?,
@@ -503,7 +522,7 @@ impl Key {
             Syntax::Dock => config.dock = optional(text, parse_dock).ok_or(invalid)?.map(dock),
             Syntax::Millis { min, max } => {
                 let ms = parse_millis(text, min, max).ok_or(invalid)?;
-                *self.period(config).ok_or(invalid)? = Duration::from_millis(ms.into());
+                *(self.period().ok_or(invalid)?.place)(config) = Duration::from_millis(ms.into());
             }
             Syntax::EstopInput => config.estop_input = EstopWiring::parse(text).ok_or(invalid)?,
             Syntax::Pin => config.web_pin = optional(text, WebPin::parse).ok_or(invalid)?,
@@ -520,7 +539,7 @@ impl Key {
                 write!(out, ":{}", config.robot.port)
             }
             Syntax::Switch => {
-                let on = self.switch(&mut config.clone()).map(|on| *on);
+                let on = self.switch().map(|field| *(field.value)(config));
                 out.write_str(if on.ok_or(fmt::Error)? { "1" } else { "0" })
             }
             Syntax::Cidr => write_optional(out, config.ip.as_ref(), |out, ip| {
@@ -562,7 +581,7 @@ impl Key {
                 Ok(())
             }),
             Syntax::Millis { .. } => {
-                let ms = self.period(&mut config.clone()).map(|d| d.as_millis());
+                let ms = self.period().map(|field| (field.value)(config).as_millis());
                 write!(out, "{}", ms.ok_or(fmt::Error)?)
             }
             Syntax::EstopInput => out.write_str(config.estop_input.name()),
