@@ -60,7 +60,7 @@ const MEASURES: [&str; 4] = ["forward", "release", "stop in task", "e-stop"];
 fn as_it_is(_: &Simulator) {}
 
 /// The robots of the report: a healthy one and one per fault of the simulator.
-const ROBOTS: [Robot; 6] = [
+const ROBOTS: [Robot; 7] = [
     Robot {
         name: "healthy",
         misbehave: as_it_is,
@@ -89,6 +89,17 @@ const ROBOTS: [Robot; 6] = [
         misbehave: |sim| {
             sim.set_faults(Faults {
                 mute: true,
+                ..Default::default()
+            })
+        },
+        before_estop: as_it_is,
+        page_clients: 0,
+    },
+    Robot {
+        name: "floods garbage between answers",
+        misbehave: |sim| {
+            sim.set_faults(Faults {
+                flood: true,
                 ..Default::default()
             })
         },

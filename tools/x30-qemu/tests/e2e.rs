@@ -52,6 +52,20 @@ fn reaches_soft_estop(sim: &Simulator) {
     );
 }
 
+/// Whether the e-stop's repeats since `since` (simulator seconds) end within 30 s: none for
+/// 1.5 s. Unconfirmed, an e-stop goes on every 250 ms for as long as the robot misbehaves.
+fn estop_repeats_end(sim: &Simulator, since: f64) -> bool {
+    let quiet = || {
+        let last = motions(sim, since)
+            .into_iter()
+            .filter(|(_, c)| *c == 13)
+            .map(|(t, _)| t)
+            .fold(since, f64::max);
+        sim.elapsed().as_secs_f64() - last > 1.5
+    };
+    eventually(Duration::from_secs(30), quiet)
+}
+
 /// The log of `sim`, one request a line, for failure messages.
 fn log_text(sim: &Simulator) -> String {
     sim.requests()
@@ -465,21 +479,44 @@ fn a_robot_that_answers_every_request_late_confirms_the_estop() {
     let estop = first_command(&sim, pressed, 13).unwrap() - pressed;
     assert!(estop < 0.5, "e-stop after {estop:.3} s\n{}", log_text(&sim));
     reaches_soft_estop(&sim);
-    // Unconfirmed, the e-stop would go on every 250 ms for as long as the robot is slow.
-    let quiet = || {
-        let last = motions(&sim, pressed)
-            .into_iter()
-            .filter(|(_, c)| *c == 13)
-            .map(|(t, _)| t)
-            .fold(pressed, f64::max);
-        sim.elapsed().as_secs_f64() - last > 1.5
-    };
     assert!(
-        eventually(Duration::from_secs(30), quiet),
+        estop_repeats_end(&sim, pressed),
         "the e-stop is still repeated: no status confirmed it\n{}",
         log_text(&sim)
     );
     finish(panel);
+}
+
+/// When the steps of [`forward_then_estop`] were taken (simulator seconds).
+struct Drive {
+    /// Forward pressed.
+    pressed: f64,
+    /// Forward released.
+    released: f64,
+    /// E-stop pressed.
+    estop: f64,
+}
+
+/// Boots the panel against `sim`, whose faults are set, holds forward for 1.2 s, and 300 ms
+/// after its release presses the e-stop; returns once the robot is in soft e-stop.
+fn forward_then_estop(turn: &Turn, sim: &Simulator) -> (Running, Drive) {
+    let mut panel = boot(turn, sim);
+    let pressed = sim.elapsed().as_secs_f64();
+    panel.send("+forward");
+    sleep(Duration::from_millis(1200));
+    let released = sim.elapsed().as_secs_f64();
+    panel.send("-forward");
+    sleep(Duration::from_millis(300));
+    let estop = sim.elapsed().as_secs_f64();
+    panel.send("+estop");
+    panel.send("-estop");
+    reaches_soft_estop(sim);
+    let drive = Drive {
+        pressed,
+        released,
+        estop,
+    };
+    (panel, drive)
 }
 
 /// A robot whose writes go out only in part: a copy of each answer, cut short, comes before
@@ -494,16 +531,7 @@ fn answers_behind_frames_cut_short_are_read_and_the_estop_is_confirmed() {
         cut_frames: true,
         ..Default::default()
     });
-    let mut panel = boot(&turn, &sim);
-    let pressed = sim.elapsed().as_secs_f64();
-    panel.send("+forward");
-    sleep(Duration::from_millis(1200));
-    panel.send("-forward");
-    sleep(Duration::from_millis(300));
-    let estop = sim.elapsed().as_secs_f64();
-    panel.send("+estop");
-    panel.send("-estop");
-    reaches_soft_estop(&sim);
+    let (panel, Drive { pressed, estop, .. }) = forward_then_estop(&turn, &sim);
     sleep(Duration::from_millis(1500));
     finish(panel);
     let log = log_text(&sim);
@@ -517,6 +545,51 @@ fn answers_behind_frames_cut_short_are_read_and_the_estop_is_confirmed() {
     assert!(
         (1..=4).contains(&estops),
         "{estops} e-stops: the status should have confirmed the first\n{log}"
+    );
+}
+
+/// A robot that streams garbage between its answers, as fast as the panel reads it, so that
+/// the firmware spends its time skipping bytes and each answer comes out of the stream late
+/// (behind what the host's socket buffers hold): the stops still go out at once, ahead of
+/// that work, and the firmware still reads the answers (its link comes up, held forward
+/// drives the robot, and a status confirms the e-stop, whose repeats then end).
+#[test]
+fn a_robot_flooding_its_connections_with_garbage_gets_stops_at_once() {
+    let Some(turn) = turn() else { return };
+    let sim = simulator();
+    sim.set_faults(x30_sim::Faults {
+        flood: true,
+        ..Default::default()
+    });
+    let (
+        panel,
+        Drive {
+            pressed,
+            released,
+            estop,
+        },
+    ) = forward_then_estop(&turn, &sim);
+    let confirmed = estop_repeats_end(&sim, estop);
+    finish(panel);
+    let log = log_text(&sim);
+    assert!(
+        confirmed,
+        "the e-stop is still repeated: no status confirmed it\n{log}"
+    );
+    let forwards = motions(&sim, pressed)
+        .iter()
+        .filter(|(t, c)| *c == 1 && *t < released)
+        .count();
+    assert!(forwards >= 3, "held forward did not drive the robot\n{log}");
+    let zero = first_command(&sim, released, 6).map(|t| t - released);
+    assert!(
+        zero.is_some_and(|z| z < 0.5),
+        "zero velocity after {zero:?} s\n{log}"
+    );
+    let first = first_command(&sim, estop, 13).map(|t| t - estop);
+    assert!(
+        first.is_some_and(|t| t < 0.5),
+        "e-stop after {first:?} s\n{log}"
     );
 }
 

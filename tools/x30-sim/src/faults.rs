@@ -28,6 +28,10 @@ pub const MERGED_ID_OFFSET: u16 = 0x8000;
 /// byte by byte is exercised.
 pub const GARBAGE: &[u8] = &[0x55, 0xAA, 0x00, 0xEB, 0x90, 0x00, 0x7F, 0x0A];
 
+/// How many bytes each write of [`Faults::flood`] takes: [`GARBAGE`] over and over, about
+/// one Ethernet frame's payload.
+pub const FLOOD_WRITE: usize = 1456;
+
 /// What [`Faults::reserved_bytes`] puts in the 8 reserved bytes of each answer's header,
 /// which the document fills with zeros "for now".
 pub const RESERVED_BYTES: [u8; 8] = [0x01, 0x00, 0x5A, 0xEB, 0x90, 0xFF, 0x00, 0x80];
@@ -107,6 +111,10 @@ pub struct Faults {
     pub hang_up_on: Vec<i32>,
     /// Put [`GARBAGE`] before each answer frame, in the same write.
     pub garbage: bool,
+    /// Between answers, write [`GARBAGE`] over and over, [`FLOOD_WRITE`] bytes a write, as
+    /// fast as the client reads it: a `robot_server` (or another device on its port) that
+    /// streams bytes no frame holds. Answers still go out whole, between two writes.
+    pub flood: bool,
     /// Put a frame with an empty body before each answer frame, in the same write, with
     /// the answer's message ID: a keep-alive that happens to share it.
     pub empty_frames: bool,
@@ -287,6 +295,11 @@ pub fn alter_header(frame: &mut [u8], faults: &Faults) {
     if let (true, Some(reserved)) = (faults.reserved_bytes, frame.get_mut(8..HEADER_LEN)) {
         reserved.copy_from_slice(&RESERVED_BYTES);
     }
+}
+
+/// The bytes of one write of [`Faults::flood`].
+pub fn flood_bytes() -> Vec<u8> {
+    GARBAGE.iter().copied().cycle().take(FLOOD_WRITE).collect()
 }
 
 /// The bytes of one write: the frames in order (answers, and the extra frames of

@@ -72,6 +72,10 @@ struct Cli {
     /// Send a few garbage bytes (no sync sequence) before each answer frame.
     #[arg(long)]
     garbage: bool,
+    /// Between answers, stream garbage bytes (no sync sequence) as fast as the client reads
+    /// them; answers still go out whole.
+    #[arg(long)]
+    flood: bool,
     /// Send a frame with an empty body, with the answer's message ID, before each answer
     /// frame (a keep-alive that shares the ID).
     #[arg(long)]
@@ -213,6 +217,7 @@ impl Cli {
                 hang_up_after_answer: self.hang_up_after_answer,
                 hang_up_on: self.hang_up_on.clone(),
                 garbage: self.garbage,
+                flood: self.flood,
                 empty_frames: self.empty_frames,
                 reserved_bytes: self.reserved_bytes,
                 split: self.split.and_then(|n| usize::try_from(n).ok()),

@@ -131,7 +131,14 @@ pub(crate) fn run(shared: Arc<Shared>, mut stream: TcpStream, queue: Receiver<Ou
             continue;
         }
         let next_due = waiting.iter().map(due).min();
-        let wait = next_due.map_or(POLL, |due| due.saturating_duration_since(now).min(POLL));
+        let mut wait = next_due.map_or(POLL, |due| due.saturating_duration_since(now).min(POLL));
+        if faults.flood {
+            // Blocks while the client's window is full: as fast as it reads, no faster.
+            if write(&shared, &mut stream, &faults::flood_bytes(), None).is_err() {
+                return;
+            }
+            wait = Duration::ZERO;
+        }
         if !open {
             std::thread::sleep(wait);
             continue;

@@ -5,9 +5,10 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::*;
+use x30_panel::proto::codes::MotionState;
 use x30_panel::proto::frame::{FrameDecoder, FrameError, HEADER_LEN, SYNC};
 use x30_panel::proto::message::{Direction, MotionCommand, Request, Response};
-use x30_sim::faults::{GARBAGE, MERGED_ID_OFFSET, UNKNOWN_TYPE};
+use x30_sim::faults::{FLOOD_WRITE, GARBAGE, MERGED_ID_OFFSET, UNKNOWN_TYPE};
 use x30_sim::{Config, Declaration, Faults};
 
 fn ms(n: u64) -> Duration {
@@ -124,6 +125,40 @@ fn garbage_precedes_each_answer_frame() {
         client.stream_errors.as_slice(),
         [FrameError::Garbage { skipped }] if *skipped == GARBAGE.len()
     ));
+}
+
+#[test]
+fn flood_streams_garbage_between_whole_answers() {
+    let sim = start_faulty(Faults {
+        flood: true,
+        ..Faults::default()
+    });
+    let mut client = Client::connect(sim.addr());
+    // Unasked, garbage arrives, and keeps arriving as fast as it is read.
+    let mut idle = Vec::new();
+    while idle.len() < 4 * FLOOD_WRITE {
+        let read = client.read_once(ms(2000));
+        assert!(!read.is_empty(), "no flood after {} bytes", idle.len());
+        idle.extend(read);
+    }
+    let pattern: Vec<u8> = GARBAGE.iter().copied().cycle().take(idle.len()).collect();
+    assert_eq!(idle, pattern, "the flood is GARBAGE over and over");
+    // Each answer still arrives whole among it, and a resynchronising decoder finds it.
+    for _ in 0..3 {
+        let status = client.status();
+        assert_eq!(status.motion_state, MotionState::ForceControlStand);
+    }
+    assert!(
+        client
+            .stream_errors
+            .iter()
+            .all(|e| matches!(e, FrameError::Garbage { .. })),
+        "only garbage was skipped, no answer broken: {:?}",
+        client
+            .stream_errors
+            .iter()
+            .find(|e| !matches!(e, FrameError::Garbage { .. }))
+    );
 }
 
 /// Reads until `frames` whole frames have arrived; returns every byte read.
