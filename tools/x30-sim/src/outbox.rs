@@ -111,6 +111,8 @@ impl Drop for FollowUp {
 /// has ended) and nothing is left, a write fails, or the simulator shuts down.
 pub(crate) fn run(shared: Arc<Shared>, mut stream: TcpStream, queue: Receiver<Outgoing>) {
     let opened = Instant::now();
+    // What each write of a flood puts on the wire, made once for the connection.
+    let flood = faults::flood_bytes();
     let mut waiting: Vec<Outgoing> = Vec::new();
     let mut open = true;
     while (open || !waiting.is_empty()) && !shared.is_shutting_down() {
@@ -134,7 +136,7 @@ pub(crate) fn run(shared: Arc<Shared>, mut stream: TcpStream, queue: Receiver<Ou
         let mut wait = next_due.map_or(POLL, |due| due.saturating_duration_since(now).min(POLL));
         if faults.flood {
             // Blocks while the client's window is full: as fast as it reads, no faster.
-            if write(&shared, &mut stream, &faults::flood_bytes(), None).is_err() {
+            if write(&shared, &mut stream, &flood, None).is_err() {
                 return;
             }
             wait = Duration::ZERO;
