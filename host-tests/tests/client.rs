@@ -13,7 +13,7 @@ use std::net::{TcpListener, TcpStream};
 use std::thread;
 use x30_panel::client::{
     ANSWER_OVERDUE, Backoff, ClientError, Connection, Health, MAX_DOUBLINGS, PROMPT_ANSWERS,
-    REQUEST_TIMEOUT, SILENT_AFTER, STABLE_AFTER,
+    REQUEST_TIMEOUT, SILENT_AFTER, STABLE_AFTER, Sent,
 };
 use x30_panel::config::RobotAddress;
 use x30_panel::proto::codes::*;
@@ -566,6 +566,54 @@ async fn a_robot_that_stops_answering_is_overdue_then_silent() {
         .is_some()
     );
     assert_eq!(link.health(Instant::now()), Health::Silent);
+}
+
+/// Whether `sent` is an e-stop.
+fn is_estop(sent: &Sent) -> bool {
+    sent.message_type == MessageType::Motion && sent.command == 13
+}
+
+/// A robot answers a motion repeat after the e-stop written just behind it has reached it,
+/// then hangs: the e-stop's repeat, written after that answer, is the one it never read,
+/// and the e-stop before it (with an answer after it) does not hide it.
+#[tokio::test]
+async fn a_stop_written_after_the_last_answer_is_unread_whatever_came_before_it() {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let addr = peer(move |mut s| {
+        let mut d = FrameDecoder::new();
+        let repeat = read_request(&mut s, &mut d).unwrap();
+        let _estop = read_request(&mut s, &mut d).unwrap();
+        let forward = MotionCommand::Move(Direction::Forward, Speed::Default);
+        s.write_all(&answer(repeat.0, &ack(forward))).unwrap();
+        // Hung: reads what comes (the repeat of the e-stop), answers nothing.
+        let again = read_request(&mut s, &mut d);
+        tx.send(again.map(|(_, request)| request)).unwrap();
+        thread::sleep(std::time::Duration::from_millis(500));
+    });
+    let mut link = connected(addr).await;
+    let forward = Request::Motion(MotionCommand::Move(Direction::Forward, Speed::Default));
+    let estop = Request::Motion(MotionCommand::SoftEmergencyStop);
+    link.send(&forward).await.unwrap();
+    link.send(&estop).await.unwrap();
+    let answered = link.receive().await.unwrap();
+    assert_eq!(answered.request.command, 1, "the repeat's answer");
+    assert_eq!(
+        link.unread_since(is_estop),
+        None,
+        "the robot sent something after the first e-stop was written"
+    );
+    let before = Instant::now();
+    link.send(&estop).await.unwrap();
+    let after = Instant::now();
+    let unread = link.unread_since(is_estop);
+    assert!(
+        unread.is_some_and(|at| before <= at && at <= after),
+        "the e-stop's repeat is unread since it was written: {unread:?}"
+    );
+    assert_eq!(
+        rx.recv_timeout(std::time::Duration::from_secs(5)).unwrap(),
+        Some(estop)
+    );
 }
 
 #[tokio::test]

@@ -425,21 +425,25 @@ impl<T: Transport> Connection<T> {
         self.answered_up_to.is_some_and(|up_to| up_to > sent.at)
     }
 
-    /// When the oldest outstanding request that `is` picks was written, if the robot has
-    /// sent nothing at all on this connection since: as far as that request can tell, the
-    /// robot may no longer read the connection (a handler that hung). The command loop asks
-    /// it of the stops, which would otherwise wait the seconds of [`SILENT_AFTER`] before
-    /// they went out again on a new connection; whether that is what it means is the
+    /// When the oldest outstanding request that `is` picks and that the robot has sent
+    /// nothing at all on this connection since was written: as far as that request can
+    /// tell, the robot may no longer read the connection (a handler that hung). The command
+    /// loop asks it of the stops, which would otherwise wait the seconds of [`SILENT_AFTER`]
+    /// before they went out again on a new connection; whether that is what it means is the
     /// caller's to weigh, with [`Connection::answered`]: a robot serving one connection at a
     /// time leaves a connection never answered on unread in its backlog, too.
+    ///
+    /// Older such requests that the robot did send something after are passed over, not
+    /// taken for the answer: an e-stop written just before the answer to a motion repeat
+    /// says nothing of the repeats of it written after, which a robot that hung then never
+    /// reads.
     pub fn unread_since(&self, is: impl Fn(&Sent) -> bool) -> Option<Instant> {
-        let sent = self
-            .outstanding
+        let since = self.waiting_since?;
+        self.outstanding
             .iter()
             .map(|&(_, sent)| sent)
-            .find(|sent| is(sent))?;
-        let unread = self.waiting_since.is_some_and(|since| since <= sent.at);
-        unread.then_some(sent.at)
+            .find(|sent| is(sent) && since <= sent.at)
+            .map(|sent| sent.at)
     }
 
     /// Gives up on the oldest request if it has waited `limit` or longer at `now`, and
