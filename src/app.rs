@@ -576,7 +576,9 @@ impl App<'_> {
                     sent.command,
                     id
                 );
-                self.panel(|p| p.command_answered(sent.message_type, Err(&ClientError::Timeout)));
+                self.panel(|p| {
+                    p.command_answered(sent.message_type, Some(sent.at), Err(&ClientError::Timeout))
+                });
             }
             // The robot stopped answering the poll connection, which it had answered: a
             // robot whose handlers hung may no longer read this one either. Reopened now if
@@ -663,7 +665,11 @@ impl App<'_> {
                         }
                         (None, result) => {
                             self.panel(|p| {
-                                p.command_answered(answer.request.message_type, result.as_ref())
+                                p.command_answered(
+                                    answer.request.message_type,
+                                    Some(answer.request.at),
+                                    result.as_ref(),
+                                )
                             });
                             self.wake_leds.signal(());
                         }
@@ -754,7 +760,7 @@ impl App<'_> {
             );
             self.wake_leds.signal(());
             if let Err(e) = conn.send(&request).await {
-                self.panel(|p| p.command_answered(request.message_type(), Err(&e)));
+                self.panel(|p| p.command_answered(request.message_type(), None, Err(&e)));
                 return false;
             }
             if !conn.answered() {
@@ -1019,7 +1025,13 @@ impl App<'_> {
     fn copy_answered(&self, answer: &Answer) {
         if answer.request.message_type == MessageType::Motion {
             self.note_heard(ConnectionRole::Polls);
-            self.panel(|p| p.command_answered(answer.request.message_type, answer.result.as_ref()));
+            self.panel(|p| {
+                p.command_answered(
+                    answer.request.message_type,
+                    Some(answer.request.at),
+                    answer.result.as_ref(),
+                )
+            });
             self.wake_commands.signal(());
             self.wake_leds.signal(());
         }

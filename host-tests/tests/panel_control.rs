@@ -13,6 +13,7 @@ use x30_panel::panel::control::{ESTOP_LIGHT, ESTOP_REPEAT, ONE_SHOT_QUEUE};
 use x30_panel::panel::{Button, Control, STALE_PRESS, TaskEnd, TaskOrder, succeeded};
 use x30_panel::proto::codes::*;
 use x30_panel::proto::message::*;
+use x30_panel::settings::Key;
 use x30_panel::settings::route::RoutePoint;
 
 const FORWARD: Request = Request::Motion(MotionCommand::Move(Direction::Forward, Speed::Default));
@@ -367,11 +368,37 @@ fn an_outage_while_idle_sends_nothing() {
     c.release(Button::Forward, 0);
     assert_eq!(drain(&mut c, at(0)), [ZERO]);
     c.command_answered(Outcome::Succeeded);
-    c.zero_velocity_answered();
+    c.zero_velocity_answered(at(0));
     c.connection(ConnectionState::Connecting);
     c.connection(ConnectionState::Open);
     assert_eq!(drain(&mut c, at(600)), []);
     assert_eq!(c.next_deadline(), None);
+}
+
+/// Two zero velocities, the robot answering the first only: the second, after a press of
+/// forward in between, is what says the robot stopped, and it goes again after an outage.
+#[test]
+fn the_answer_to_an_earlier_zero_velocity_does_not_settle_a_later_one() {
+    let mut c = connected();
+    // Forward and back to rest twice: two zero velocities, written at 100 and 300 ms.
+    let drive = |c: &mut Control, ms: u64| {
+        c.press(Button::Forward, ms);
+        assert_eq!(drain(c, at(ms)), [FORWARD]);
+        c.release(Button::Forward, ms + 100);
+        assert_eq!(drain(c, at(ms + 100)), [ZERO]);
+    };
+    drive(&mut c, 0);
+    drive(&mut c, 200);
+    c.zero_velocity_answered(at(100));
+    c.connection(ConnectionState::Connecting);
+    c.connection(ConnectionState::Open);
+    assert_eq!(drain(&mut c, at(900)), [ZERO], "the second is unanswered");
+    // Its own answer settles it.
+    drive(&mut c, 1000);
+    c.zero_velocity_answered(at(1100));
+    c.connection(ConnectionState::Connecting);
+    c.connection(ConnectionState::Open);
+    assert_eq!(drain(&mut c, at(1700)), []);
 }
 
 #[test]
@@ -1324,6 +1351,30 @@ fn patrol_is_ended_by_stop_cancel_a_motion_press_or_an_estop() {
     assert!(!c.task_running(first.id), "the task is over for the panel");
     c.task_ended(first.id, TaskEnd::Failed, at(1200));
     assert_eq!(c.take_task(at(1200)), None);
+}
+
+/// A task cancelled by a press whose answer comes after a new patrol was pressed: the late
+/// answer is the old task's, and the new patrol goes to the route's first point, not to the
+/// charging point (nobody pressed dock).
+#[test]
+fn a_cancelled_tasks_late_answer_leaves_a_newer_patrol_alone() {
+    for first_button in [Button::Dock, Button::Patrol] {
+        let mut config = with_route();
+        Key::Dock
+            .apply(&mut config, "5,2,1.5,2.5,0,1")
+            .expect("a valid dock point");
+        let mut c = connected_with(&config);
+        c.press(first_button, 0);
+        let first = start(&mut c, 0);
+        c.press(Button::Cancel, 1000);
+        assert!(drain(&mut c, at(1000)).contains(&CANCEL));
+        c.press(Button::Patrol, 1150);
+        c.task_ended(first.id, TaskEnd::Cancelled, at(1200));
+        assert!(c.patrolling(), "{first_button:?}: the new patrol stands");
+        let order = c.take_task(at(1210)).expect("the new patrol's first point");
+        assert_ne!(order.id, first.id);
+        assert_eq!(target(&order), (1, [1.0, 0.0]), "{first_button:?}");
+    }
 }
 
 /// An e-stop while the command connection is down: no 1004 is kept to go stale (and blink

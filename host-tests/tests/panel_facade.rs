@@ -183,6 +183,7 @@ fn only_the_robot_answering_the_zero_velocity_spares_it_a_second_one_after_an_ou
     let forward = MotionCommandCode::Forward;
     p.command_answered(
         MessageType::Motion,
+        Some(at(0)),
         Ok(&answered(forward, CommandResult::Success)),
     );
     assert_eq!(outage(&mut p, 200), [ZERO]);
@@ -190,6 +191,7 @@ fn only_the_robot_answering_the_zero_velocity_spares_it_a_second_one_after_an_ou
     let code = MotionCommandCode::ZeroVelocity;
     p.command_answered(
         MessageType::Motion,
+        Some(at(700)),
         Ok(&answered(code, CommandResult::Failure)),
     );
     assert_eq!(outage(&mut p, 1000), []);
@@ -341,7 +343,7 @@ fn command_answers_show_on_the_fault_led() {
     let mut p = online();
     answer(&mut p, status(), 0);
     let fault = |p: &Panel| p.indicators(at(10)).fault;
-    p.command_answered(MessageType::Motion, Err(&ClientError::Timeout));
+    p.command_answered(MessageType::Motion, Some(at(0)), Err(&ClientError::Timeout));
     assert_eq!(fault(&p), Led::Blink, "no answer");
     let ack = |result| {
         Response::Motion(
@@ -352,12 +354,21 @@ fn command_answers_show_on_the_fault_led() {
             },
         )
     };
-    p.command_answered(MessageType::Motion, Ok(&ack(CommandResult::Success)));
+    p.command_answered(
+        MessageType::Motion,
+        Some(at(0)),
+        Ok(&ack(CommandResult::Success)),
+    );
     assert_eq!(fault(&p), Led::Off);
-    p.command_answered(MessageType::Motion, Ok(&ack(CommandResult::Failure)));
+    p.command_answered(
+        MessageType::Motion,
+        Some(at(0)),
+        Ok(&ack(CommandResult::Failure)),
+    );
     assert_eq!(fault(&p), Led::Blink, "refused");
     p.command_answered(
         MessageType::CancelNav,
+        Some(at(0)),
         Ok(&Response::CancelNav(CommandAck {
             result: CommandResult::Success,
         })),
@@ -365,6 +376,7 @@ fn command_answers_show_on_the_fault_led() {
     assert_eq!(fault(&p), Led::Off);
     p.command_answered(
         MessageType::Motion,
+        Some(at(0)),
         Ok(&Response::RequestError(RequestError {
             code: RequestErrorCode::ParseFailed,
         })),

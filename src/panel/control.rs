@@ -200,9 +200,10 @@ enum ZeroVelocity {
     Asked,
     /// Due once more after an outage: motion was commanded, or the one asked for unanswered.
     Again,
-    /// The one asked for was written and is unanswered, and no navigation task has started
-    /// since (a zero velocity would take the robot out of it): an outage makes it due again.
-    Unanswered,
+    /// The one asked for was written at `at` and is unanswered, and no navigation task has
+    /// started since (a zero velocity would take the robot out of it): an outage makes it
+    /// due again. Only its own answer settles it, not that of one written before it.
+    Unanswered { at: Instant },
 }
 
 impl ZeroVelocity {
@@ -435,7 +436,8 @@ impl Control {
             // (unanswered). Zero velocity after the outage is no replayed press: stopping is
             // always safe. It goes once: a robot that never answers is not sent one on every
             // connection.
-            if self.next_repeat.is_some() || self.zero_velocity == ZeroVelocity::Unanswered {
+            let unanswered = matches!(self.zero_velocity, ZeroVelocity::Unanswered { .. });
+            if self.next_repeat.is_some() || unanswered {
                 self.zero_velocity = ZeroVelocity::Again;
                 self.end_motion();
             }
@@ -484,7 +486,7 @@ impl Control {
         if self.zero_velocity.due() {
             // Only the one asked for waits for its answer, not one sent again.
             self.zero_velocity = if self.zero_velocity == ZeroVelocity::Asked {
-                ZeroVelocity::Unanswered
+                ZeroVelocity::Unanswered { at: now }
             } else {
                 ZeroVelocity::No
             };
@@ -598,15 +600,21 @@ impl Control {
         self.last_failed = outcome == Outcome::Failed;
     }
 
-    /// The robot answered a zero velocity (whether it succeeded or not, it read it): a
-    /// lost connection need not send it again.
-    pub fn zero_velocity_answered(&mut self) {
-        self.settle_zero_velocity();
+    /// The robot answered a zero velocity written at `written` (whether it succeeded or
+    /// not, it read it): if that is the one waiting for its answer, or one written after
+    /// it, a lost connection need not send it again. The answer to one written before it
+    /// says nothing of whether the robot read the latest.
+    pub fn zero_velocity_answered(&mut self, written: Instant) {
+        if let ZeroVelocity::Unanswered { at } = self.zero_velocity
+            && written >= at
+        {
+            self.zero_velocity = ZeroVelocity::No;
+        }
     }
 
     /// A zero velocity waiting for its answer need no longer go again after an outage.
     fn settle_zero_velocity(&mut self) {
-        if self.zero_velocity == ZeroVelocity::Unanswered {
+        if let ZeroVelocity::Unanswered { .. } = self.zero_velocity {
             self.zero_velocity = ZeroVelocity::No;
         }
     }
@@ -676,11 +684,16 @@ impl Control {
         }
         // A cancelled task is not a failure: someone meant it.
         self.last_failed = end == TaskEnd::Failed;
+        if !ours {
+            // A task a press already ended: the press ended its patrol too, and a patrol
+            // now is a newer order's, which this answer says nothing of.
+            return;
+        }
         let Some(index) = self.patrol.take() else {
             return;
         };
         let next = index + 1;
-        if !ours || end != TaskEnd::Reached {
+        if end != TaskEnd::Reached {
             info!("patrol ended at point {} of {}", next, self.route.len());
             return;
         }

@@ -260,11 +260,12 @@ impl Panel {
         request
     }
 
-    /// The answer to a command of Type `request`, or why there is none (timeout,
-    /// connection lost, Type 0).
+    /// The answer to a command of Type `request` written at `written` (`None`: the write
+    /// failed), or why there is none (timeout, connection lost, Type 0).
     pub fn command_answered(
         &mut self,
         request: MessageType,
+        written: Option<Instant>,
         answer: Result<&Response, &ClientError>,
     ) {
         let outcome = Outcome::of(answer);
@@ -277,8 +278,10 @@ impl Panel {
         if request == MessageType::Light {
             self.control.light_answered(outcome);
         }
-        if let Ok(Response::Motion(MotionCommandCode::ZeroVelocity, _)) = answer {
-            self.control.zero_velocity_answered();
+        if let (Ok(Response::Motion(MotionCommandCode::ZeroVelocity, _)), Some(written)) =
+            (answer, written)
+        {
+            self.control.zero_velocity_answered(written);
         }
     }
 
