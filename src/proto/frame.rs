@@ -23,10 +23,11 @@
 //! garbage. (A whole header holds one only if its length and message ID are both 37099, or
 //! if its reserved bytes, which the document fills with zeros, hold one.)
 //!
-//! The document reserves the last eight header bytes and fills them with zeros "for now".
-//! The robot refuses a request whose reserved bytes are not zero, and so does a decoder by
-//! default. A client reads answers with [`Reserved::Ignore`], so that a robot whose
-//! software puts something there is still understood.
+//! The document reserves the last eight header bytes and fills them with zeros "for now",
+//! without saying what a receiver does with other bytes there. A decoder refuses such a
+//! header by default ([`Reserved::Refuse`], the robot's side as the simulator reads it); a
+//! client reads answers with [`Reserved::Ignore`], so that a robot whose software puts
+//! something there is still understood.
 
 /// The four bytes that start every frame.
 pub const SYNC: [u8; 4] = [0xEB, 0x90, 0xEB, 0x90];
