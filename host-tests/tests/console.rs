@@ -503,6 +503,63 @@ async fn a_button_event_not_yet_taken_in_keeps_the_flash_untouched() {
     );
 }
 
+thread_local! {
+    /// What the panel of the test below shares, for its store's erase gate (a plain `fn`,
+    /// as the board's is): each test runs on a thread of its own.
+    static GATED_PANEL: &'static Shared = Box::leak(Box::new(Shared::new()));
+}
+
+/// The board's erase gate, over [`GATED_PANEL`].
+fn erase_allowed() -> bool {
+    desk::busy(GATED_PANEL.with(|shared| *shared)).is_none()
+}
+
+/// An e-stop pressed while a save reads the pages, after the check that let the save start:
+/// the page erase the save then needs is held back (it would stall the chip while the stop
+/// waits), and the save is refused as if the press had come first.
+#[tokio::test(flavor = "current_thread")]
+async fn an_estop_pressed_while_a_save_reads_the_pages_holds_its_erase_back() {
+    let shared = GATED_PANEL.with(|shared| *shared);
+    let flash = flash();
+    let mut store = Store::new(flash.clone(), 0..2 * PAGE as u32).with_erase_gate(erase_allowed);
+    let (mut settings, _) = settings::load(&mut store, Config::default()).await;
+    // After one turn of its own: the save has started, and passed its check, by then.
+    let press = || async {
+        tokio::task::yield_now().await;
+        shared
+            .buttons
+            .try_send(ButtonEvent {
+                button: Button::Estop,
+                pressed: true,
+                at: Instant::now(),
+            })
+            .unwrap();
+    };
+    // Saves, each with the press coming at its first turn to the other tasks, until one
+    // needs a page erased: the saves before it wrote without erasing.
+    let mut held = None;
+    for save in 0..5000 {
+        let value = if save % 2 == 0 { "300" } else { "250" };
+        settings.set(Key::Repeat, value).unwrap();
+        let (result, ()) = tokio::join!(desk::save(&mut store, &mut settings, shared), press());
+        // The panel takes the event in.
+        shared.buttons.try_receive().unwrap();
+        if let Err(refused) = result {
+            held = Some((save, refused));
+            break;
+        }
+        assert_eq!(flash.page_erases(), 0);
+    }
+    let (save, refused) = held.expect("a save needed an erase");
+    assert!(save > 10, "{save} saves before the pages filled");
+    assert_eq!(refused, Refused::Busy(Busy::StopPending));
+    assert_eq!(flash.page_erases(), 0, "no erase while the stop waited");
+    assert!(!settings.unsaved().is_empty(), "the edit is still to save");
+    // Once the panel has taken the stop in, the save goes through, erase and all.
+    assert!(desk::save(&mut store, &mut settings, shared).await.is_ok());
+    assert!(flash.page_erases() > 0);
+}
+
 #[tokio::test(flavor = "current_thread")]
 async fn a_lost_store_is_told_in_the_greeting() {
     let shared = Shared::new();

@@ -7,6 +7,8 @@ mod sim_flash;
 use std::ops::Range;
 
 use sim_flash::{Cut, EraseCut, PAGE, Rng, SimFlash, Step, WriteCut};
+use std::cell::Cell;
+
 use x30_panel::settings::store::{BLOB_MAX, BUF_LEN, Store, StoreError};
 
 /// The simulated chip's pages: the store gets the middle two, the outer ones must stay blank.
@@ -185,6 +187,41 @@ async fn recycling_a_page_reads_each_item_a_few_times() {
         worst < 20 * items_per_page,
         "{worst} reads for one save, {recycling} for the page change, with {items_per_page} items a page"
     );
+}
+
+thread_local! {
+    /// Whether [`erase_allowed`] holds erases back (each test runs on a thread of its own).
+    static HOLD_ERASES: Cell<bool> = const { Cell::new(false) };
+}
+
+/// The erase gate of the test below.
+fn erase_allowed() -> bool {
+    !HOLD_ERASES.get()
+}
+
+/// Saves while erases are held back: the first save that needs a page erased fails before
+/// erasing anything, and once erases may go again a save completes and loads back.
+#[tokio::test]
+async fn a_held_erase_fails_the_save_before_erasing_and_the_next_save_completes() {
+    let flash = SimFlash::new(FLASH_PAGES);
+    let mut s = store(&flash).with_erase_gate(erase_allowed);
+    HOLD_ERASES.set(true);
+    let mut saves = 0;
+    let held = loop {
+        match save(&mut s, &blob(saves, SMALL)).await {
+            Ok(()) => saves += 1,
+            Err(e) => break e,
+        }
+        assert!(saves < 10_000, "no save needed an erase");
+    };
+    assert_eq!(held, StoreError::Held);
+    assert_eq!(flash.page_erases(), 0, "nothing erased");
+    assert!(saves > 10, "{saves} saves before a page change");
+    HOLD_ERASES.set(false);
+    assert_eq!(save(&mut s, &blob(saves, SMALL)).await, Ok(()));
+    assert!(flash.page_erases() > 0);
+    assert_eq!(load(&mut store(&flash)).await, Ok(Some(blob(saves, SMALL))));
+    assert_eq!(flash.violations(), 0);
 }
 
 #[tokio::test]

@@ -12,7 +12,7 @@ use x30_panel::app::{self, Shared};
 use x30_panel::config::{Cidr, Config, Network};
 use x30_panel::console::{self, Reboot};
 use x30_panel::panel::NetworkState;
-use x30_panel::settings::desk::Desk;
+use x30_panel::settings::desk::{self, Desk};
 use x30_panel::settings::store::Store;
 use x30_panel::settings::{self, LoadProblem, Settings};
 
@@ -27,6 +27,13 @@ use super::net::{self, LinkBuffers, SocketBuffers};
 pub fn shared() -> &'static Shared {
     static SHARED: OnceLock<Shared> = OnceLock::new();
     SHARED.get_or_init(Shared::new)
+}
+
+/// Whether a settings page erase may stall the chip now: not while the panel is busy
+/// ([`desk::busy`]: a stop going out or pending, motion held, a task running). The store
+/// asks right before each erase, since a save reads the pages for a while first.
+pub fn erase_allowed() -> bool {
+    desk::busy(shared()).is_none()
 }
 
 /// Where the console, which owns the settings, takes the web page's changes.

@@ -142,7 +142,7 @@ pub async fn run(spawner: Spawner) -> ! {
     let mut core = unwrap!(cortex_m::Peripherals::take());
     let sysclk = unwrap!(rcc::clocks(&p.RCC).sys.to_hertz());
     let flash = SettingsFlash::new(p.FLASH, &mut core.DCB, core.DWT, sysclk);
-    let mut store = Store::new(flash, settings_flash::RANGE);
+    let mut store = Store::new(flash, settings_flash::RANGE).with_erase_gate(glue::erase_allowed);
     let (settings, problem) = glue::load_settings(&mut store, Config::from_build_env()).await;
     // The console keeps the settings; the rest of the board runs on this copy.
     let config = settings.config().clone();

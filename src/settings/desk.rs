@@ -117,9 +117,17 @@ pub async fn save<F: NorFlash>(
         .save(blob.get(..len).unwrap_or_default(), &mut scratch)
         .await;
     let took = Instant::now().saturating_duration_since(started);
-    if let Err(e) = result {
-        warn!("settings: save failed: {:?}", e);
-        return Err(Refused::Flash(e));
+    match result {
+        Ok(()) => {}
+        // A stop or a press came while the pages were read: the erase it needed waits.
+        Err(StoreError::Held) => {
+            info!("settings: save held back before a page erase");
+            return Err(Refused::Busy(busy(shared).unwrap_or(Busy::StopPending)));
+        }
+        Err(e) => {
+            warn!("settings: save failed: {:?}", e);
+            return Err(Refused::Flash(e));
+        }
     }
     settings.commit();
     shared.set_settings_lost(false);

@@ -55,6 +55,12 @@ use sequential_storage::map::{MapConfig, MapStorage, SerializationError, Value};
 /// Largest settings blob the store holds, bytes.
 pub const BLOB_MAX: usize = 3584;
 
+/// Asked right before each page erase, after the other tasks have had their turn: `false`
+/// holds the erase back, and the operation fails with [`StoreError::Held`]. An erase stalls
+/// the whole chip on some boards, so the firmware holds it back while a stop or anything
+/// else a person did must not wait ([`Store::with_erase_gate`]).
+pub type EraseGate = fn() -> bool;
+
 /// Smallest buffer [`Store::load`] and [`Store::save`] accept, bytes: the largest item's data
 /// rounded up to a flash word, with room for any word size up to 32 bytes.
 pub const BUF_LEN: usize = BLOB_MAX + 64;
@@ -119,6 +125,7 @@ impl<F: NorFlash> Store<F> {
                 Ok(config) => {
                     let flash = Guarded {
                         flash,
+                        gate: || true,
                         start: range.start,
                         page_size,
                         pages: len / page_size,
@@ -138,6 +145,14 @@ impl<F: NorFlash> Store<F> {
             last_erases: 0,
             range,
         }
+    }
+
+    /// The store with `gate` asked before each page erase (by default every erase may go).
+    pub fn with_erase_gate(mut self, gate: EraseGate) -> Self {
+        if let Some(map) = self.map.as_mut() {
+            map.flash().gate = gate;
+        }
+        self
     }
 
     /// Makes the map again with an empty cache, after the store read or erased pages behind
@@ -435,6 +450,10 @@ pub enum StoreError {
     /// does not know (from a newer version). The flash is as the failed operation left it;
     /// retrying may give the same error, and a save does not erase on it.
     Internal,
+    /// The [`EraseGate`] held back a page erase the operation needed. The store is as a
+    /// power cut before that erase would leave it: a later load gives the old blob or, if
+    /// the save had written it already, the new one. Retrying once the gate allows works.
+    Held,
 }
 
 impl core::fmt::Display for StoreError {
@@ -444,6 +463,7 @@ impl core::fmt::Display for StoreError {
             Self::Corrupted => "settings store corrupted or foreign",
             Self::TooLarge => "settings too large for the store",
             Self::BufferTooSmall => "settings buffer too small",
+            Self::Held => "a page erase was held back",
             Self::BadRange => "settings flash range unusable",
             Self::Internal => "settings store internal error",
         })
@@ -478,6 +498,7 @@ fn from_guard<E>(e: &GuardError<E>) -> StoreError {
         // A write that would not stick: the map took flash for blank that is not.
         GuardError::Dirty => StoreError::Corrupted,
         GuardError::ReadOnly => StoreError::Internal,
+        GuardError::Held => StoreError::Held,
     }
 }
 
@@ -490,13 +511,15 @@ enum GuardError<E> {
     Dirty,
     /// A write or erase while one page is being read on its own.
     ReadOnly,
+    /// An erase the [`EraseGate`] held back.
+    Held,
 }
 
 impl<E: NorFlashError> NorFlashError for GuardError<E> {
     fn kind(&self) -> NorFlashErrorKind {
         match self {
             Self::Driver(e) => e.kind(),
-            Self::Dirty | Self::ReadOnly => NorFlashErrorKind::Other,
+            Self::Dirty | Self::ReadOnly | Self::Held => NorFlashErrorKind::Other,
         }
     }
 }
@@ -506,6 +529,8 @@ impl<E: NorFlashError> NorFlashError for GuardError<E> {
 struct Guarded<F> {
     /// The driver.
     flash: F,
+    /// Asked before each erase.
+    gate: EraseGate,
     /// The range's first offset.
     start: u32,
     /// The erase page size, bytes.
@@ -611,6 +636,12 @@ impl<F: NorFlash> NorFlash for Guarded<F> {
     async fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
         if self.view.is_some() {
             return Err(GuardError::ReadOnly);
+        }
+        // The other tasks first: a button pressed while the pages were read reaches the
+        // panel, and the gate, before the erase can stall the chip.
+        embassy_futures::yield_now().await;
+        if !(self.gate)() {
+            return Err(GuardError::Held);
         }
         let pages = to.saturating_sub(from).checked_div(self.page_size);
         self.erases = self.erases.saturating_add(pages.unwrap_or(0));

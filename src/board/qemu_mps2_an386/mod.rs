@@ -63,7 +63,7 @@ pub async fn run(spawner: Spawner) -> ! {
 
     // The settings first: the network and the application run on them.
     let (defaults, flash) = from_command_line();
-    let mut store = Store::new(flash, 0..flash::CAPACITY);
+    let mut store = Store::new(flash, 0..flash::CAPACITY).with_erase_gate(glue::erase_allowed);
     let (settings, problem) = glue::load_settings(&mut store, defaults).await;
     // The console keeps the settings; the rest of the board runs on this copy.
     let config = settings.config().clone();
