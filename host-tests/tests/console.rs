@@ -87,12 +87,33 @@ fn arrow_keys_and_binary_noise_are_not_typed() {
 }
 
 #[test]
-fn a_full_line_rings_the_bell() {
+fn a_full_line_rings_the_bell_and_is_not_run() {
     let mut e = LineEditor::new();
     let typed = vec![b'a'; LINE_MAX];
     assert!(edit(&mut e, &typed).iter().all(|i| *i == Input::Echo(b'a')));
     assert_eq!(e.push(b'b'), Input::Bell);
     assert_eq!(e.line().len(), LINE_MAX);
+    // What was kept is not what was typed: the line is dropped, and the next one runs.
+    assert_eq!(e.push(b'\r'), Input::TooLong);
+    assert_eq!(e.line(), "");
+    assert_eq!(edit(&mut e, b"ok\r").last(), Some(&Input::Line));
+    assert_eq!(e.line(), "ok");
+    // Ctrl-C forgets the overflow with the line.
+    edit(&mut e, &typed);
+    assert_eq!(edit(&mut e, b"b\x03ok\r").last(), Some(&Input::Line));
+    assert_eq!(e.line(), "ok");
+}
+
+/// Eight breathing light presets, the longest setting, fit a line.
+#[test]
+fn the_longest_setting_fits_a_line() {
+    let presets = vec!["00FF00:100:breathing"; 8].join(",");
+    let line = format!("set lights {presets}");
+    assert!(line.len() <= LINE_MAX, "{} characters", line.len());
+    let mut settings = Settings::new(Config::default());
+    let (_, answer) = run_line(&line, &mut settings, None);
+    assert!(answer.contains("not saved"), "{answer:?}");
+    assert_eq!(settings.edited().lights.len(), 8);
 }
 
 /// Runs `line` on `settings` with `snapshot`; the action and the answer.
@@ -459,6 +480,23 @@ async fn a_session_sets_and_saves_and_the_next_start_reads_it() {
         screen.contains("speed-turn-left    = 0.2  [set]"),
         "{screen:?}"
     );
+}
+
+/// A value pasted too long for a line is not set cut short: the line is refused, and said
+/// so, and nothing changes.
+#[tokio::test(flavor = "current_thread")]
+async fn a_line_pasted_too_long_is_refused_not_run_cut_short() {
+    let flash = flash();
+    let shared = Shared::new();
+    let presets = vec!["00FF00:100:breathing"; 10].join(",");
+    let typed = format!("set lights {presets}\rshow lights\r");
+    let (screen, _) = session(&flash, &shared, None, &typed).await;
+    assert!(
+        screen.contains(&format!("line too long (over {LINE_MAX} characters): not run")),
+        "{screen:?}"
+    );
+    assert!(!screen.contains("lights = 00FF00"), "{screen:?}");
+    assert!(screen.contains("x30> show lights"), "the next line runs: {screen:?}");
 }
 
 #[tokio::test(flavor = "current_thread")]

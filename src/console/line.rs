@@ -2,8 +2,9 @@
 //! the line, Ctrl-C or Ctrl-U drops it, and the escape sequences of arrow and function keys
 //! are swallowed rather than typed into the line.
 
-/// Longest line the console reads; a longer one rings the bell instead of growing.
-pub const LINE_MAX: usize = 160;
+/// Longest line the console reads; a longer one rings the bell instead of growing, and is
+/// refused when it ends. Room for the longest setting, eight breathing light presets (178).
+pub const LINE_MAX: usize = 200;
 
 /// What the terminal should be sent after a byte was typed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -20,6 +21,9 @@ pub enum Input {
     Dropped,
     /// The line is complete: [`LineEditor::line`] holds it until the next byte.
     Line,
+    /// The line ended after more than [`LINE_MAX`] characters were typed into it: dropped,
+    /// not run, since what was kept is not what was typed (a pasted value cut short).
+    TooLong,
 }
 
 /// Where an escape sequence is.
@@ -42,6 +46,8 @@ pub struct LineEditor {
     complete: bool,
     /// Whether the previous byte was a CR, so that the LF of a CR LF ends no second line.
     after_cr: bool,
+    /// Whether a character did not fit the line: then it is refused when it ends.
+    overflowed: bool,
     /// Escape-sequence state.
     escape: Escape,
 }
@@ -59,6 +65,7 @@ impl LineEditor {
             line: heapless::String::new(),
             complete: false,
             after_cr: false,
+            overflowed: false,
             escape: Escape::None,
         }
     }
@@ -100,6 +107,10 @@ impl LineEditor {
         }
         match byte {
             b'\n' if after_cr => Input::Nothing,
+            b'\r' | b'\n' if core::mem::take(&mut self.overflowed) => {
+                self.line.clear();
+                Input::TooLong
+            }
             b'\r' | b'\n' => {
                 self.complete = true;
                 Input::Line
@@ -112,6 +123,7 @@ impl LineEditor {
             // Ctrl-C, Ctrl-U.
             0x03 | 0x15 => {
                 self.line.clear();
+                self.overflowed = false;
                 Input::Dropped
             }
             0x1B => {
@@ -120,7 +132,10 @@ impl LineEditor {
             }
             0x20..=0x7E => match self.line.push(char::from(byte)) {
                 Ok(()) => Input::Echo(byte),
-                Err(_) => Input::Bell,
+                Err(_) => {
+                    self.overflowed = true;
+                    Input::Bell
+                }
             },
             // Other control characters and non-ASCII bytes mean nothing here.
             _ => Input::Nothing,

@@ -108,6 +108,14 @@ pub async fn run<R: Read, W: Write, F: NorFlash>(
                 let _ = answer.push_str("^C\r\n");
                 let _ = answer.push_str(PROMPT);
             }
+            Input::TooLong => {
+                let _ = writeln!(
+                    answer,
+                    "\r\nline too long (over {} characters): not run",
+                    line::LINE_MAX
+                );
+                let _ = answer.push_str(PROMPT);
+            }
             Input::Line => {
                 let _ = answer.push_str("\r\n");
                 let action = commands::execute(
