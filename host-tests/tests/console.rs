@@ -107,7 +107,7 @@ fn a_full_line_rings_the_bell_and_is_not_run() {
 /// Eight breathing light presets, the longest setting, fit a line.
 #[test]
 fn the_longest_setting_fits_a_line() {
-    let presets = vec!["00FF00:100:breathing"; 8].join(",");
+    let presets = ["00FF00:100:breathing"; 8].join(",");
     let line = format!("set lights {presets}");
     assert!(line.len() <= LINE_MAX, "{} characters", line.len());
     let mut settings = Settings::new(Config::default());
@@ -488,15 +488,20 @@ async fn a_session_sets_and_saves_and_the_next_start_reads_it() {
 async fn a_line_pasted_too_long_is_refused_not_run_cut_short() {
     let flash = flash();
     let shared = Shared::new();
-    let presets = vec!["00FF00:100:breathing"; 10].join(",");
+    let presets = ["00FF00:100:breathing"; 10].join(",");
     let typed = format!("set lights {presets}\rshow lights\r");
     let (screen, _) = session(&flash, &shared, None, &typed).await;
     assert!(
-        screen.contains(&format!("line too long (over {LINE_MAX} characters): not run")),
+        screen.contains(&format!(
+            "line too long (over {LINE_MAX} characters): not run"
+        )),
         "{screen:?}"
     );
     assert!(!screen.contains("lights = 00FF00"), "{screen:?}");
-    assert!(screen.contains("x30> show lights"), "the next line runs: {screen:?}");
+    assert!(
+        screen.contains("x30> show lights"),
+        "the next line runs: {screen:?}"
+    );
 }
 
 #[tokio::test(flavor = "current_thread")]
@@ -796,6 +801,51 @@ async fn a_save_whose_caller_gave_up_keeps_the_owners_settings_from_the_next_one
     let (result, lost) = steady(async { tokio::join!(desk.save_with(edit("0.4")), owner) }).await;
     assert_eq!(result, Ok(saved));
     assert_eq!(lost.iter().collect::<Vec<_>>(), [Key::Repeat]);
+}
+
+/// Edits copied from the published settings while the owner was saving its own: once
+/// that save is in, the edits would undo it, and the owner refuses them.
+#[tokio::test(flavor = "current_thread")]
+async fn edits_copied_before_a_save_of_the_owners_are_refused_as_stale() {
+    let desk = Desk::new();
+    let mut settings = Settings::new(Config::default());
+    settings.set(Key::SpeedForward, "0.8").unwrap();
+    // Published before `save` went through: the copy does not have the new speed saved.
+    desk.publish(&settings);
+    let owner = async {
+        desk.request().await;
+        // The owner's save lands, then it takes the edits.
+        settings.commit();
+        desk.publish(&settings);
+        assert!(desk.take_edits(&mut settings));
+        assert!(desk.edits_stale(&settings));
+        let lost = desk.answer(&mut settings, Err(Refused::Stale));
+        assert!(lost.is_empty());
+        settings
+    };
+    let edit = desk.save_with(|edited| {
+        edited.set(Key::Repeat, "300").unwrap();
+        Ok::<_, Refused>(())
+    });
+    let (result, settings) = steady(async { tokio::join!(edit, owner) }).await;
+    assert_eq!(result, Err(Refused::Stale));
+    assert!(
+        settings.unsaved().is_empty(),
+        "the owner's own settings back"
+    );
+    assert_eq!(
+        settings.config().speeds,
+        {
+            let mut config = Config::default();
+            Key::SpeedForward.apply(&mut config, "0.8").unwrap();
+            config.speeds
+        },
+        "its save stands"
+    );
+    // Edits copied from what is saved now are not stale.
+    let mut now = settings.clone();
+    now.set(Key::Repeat, "300").unwrap();
+    assert!(now.same_saved(&settings));
 }
 
 #[tokio::test(flavor = "current_thread")]

@@ -673,8 +673,13 @@ fn the_settings_page_lists_every_key_and_never_the_pin() {
     assert!(text.contains("<button type=submit>"));
     let fields = inputs(&text);
     let names: Vec<&str> = fields.iter().map(|(n, _)| n.as_str()).collect();
-    let all: Vec<&str> = Key::ALL.iter().map(|k| k.name()).collect();
-    assert_eq!(names, all, "one field per key, in table order");
+    let mut all: Vec<&str> = Key::ALL.iter().map(|k| k.name()).collect();
+    all.push("saved");
+    assert_eq!(
+        names, all,
+        "one field per key, in table order, then the saved stamp"
+    );
+    assert_eq!(field(&fields, "saved"), settings.saved_stamp().to_string());
     let value = |name: &str| field(&fields, name);
     assert_eq!(value("robot"), "192.168.1.106:30000");
     assert_eq!(value("repeat-ms"), "300");
@@ -916,6 +921,90 @@ async fn the_form_as_the_page_fills_it_in_saves_just_what_was_changed() {
         with_pin().config().web_pin,
         "PIN kept"
     );
+}
+
+/// The page loaded, then a change saved on the console: the page's form, posted with
+/// another field edited, is refused rather than putting back the value the page showed,
+/// and the page then shows the settings as they are now.
+#[tokio::test(flavor = "current_thread")]
+async fn a_form_from_before_a_save_on_the_console_is_refused_and_undoes_nothing() {
+    let settings = with_pin();
+    let shown = inputs(&page(Some(&settings), None));
+    assert!(
+        shown.iter().any(|(name, _)| name == "saved"),
+        "the form carries what it showed"
+    );
+    let mut now = settings.clone();
+    now.set(Key::Repeat, "300").unwrap();
+    now.commit();
+    let mut fields: Vec<(&str, &str)> = shown
+        .iter()
+        .map(|(n, v)| {
+            (
+                n.as_str(),
+                if n == "speed-forward" {
+                    "0.3"
+                } else {
+                    v.as_str()
+                },
+            )
+        })
+        .collect();
+    fields.push(("pin", "2468"));
+    let body = form(&fields);
+    let (posted, saved) = post(&Shared::new(), now.clone(), &body).await;
+    assert_eq!(posted.status, 409, "{}", posted.message);
+    assert!(
+        posted.message.contains("saved elsewhere"),
+        "{}",
+        posted.message
+    );
+    assert!(saved.is_none(), "nothing saved: repeat-ms stays 300");
+    let after = inputs(&page_after(Some(&now), Some(&posted), &body));
+    assert_eq!(field(&after, "repeat-ms"), "300", "as saved now");
+    assert_eq!(
+        field(&after, "speed-forward"),
+        field(&shown, "speed-forward"),
+        "as saved, not as typed on the stale page"
+    );
+    // The page as it is now saves.
+    let fresh = inputs(&page(Some(&now), None));
+    let mut fields: Vec<(&str, &str)> = fresh
+        .iter()
+        .map(|(n, v)| {
+            (
+                n.as_str(),
+                if n == "speed-forward" {
+                    "0.3"
+                } else {
+                    v.as_str()
+                },
+            )
+        })
+        .collect();
+    fields.push(("pin", "2468"));
+    let (posted, saved) = post(&Shared::new(), now, &form(&fields)).await;
+    assert_eq!(posted.status, 200, "{}", posted.message);
+    assert_eq!(posted.message, "saved speed-forward");
+    assert_eq!(
+        saved.expect("saved").config().motion_repeat,
+        Duration::from_millis(300)
+    );
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_saved_field_that_is_no_number_is_refused() {
+    let body = form(&[("pin", "2468"), ("saved", "x1"), ("repeat-ms", "300")]);
+    let (posted, saved) = post(&Shared::new(), with_pin(), &body).await;
+    assert_eq!(posted.status, 400, "{}", posted.message);
+    assert!(
+        posted
+            .message
+            .starts_with("saved: the value is not a number"),
+        "{}",
+        posted.message
+    );
+    assert!(saved.is_none());
 }
 
 #[tokio::test(flavor = "current_thread")]

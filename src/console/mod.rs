@@ -156,7 +156,11 @@ async fn web_save<F: NorFlash>(
     if !desk.take_edits(settings) {
         return;
     }
-    let result = desk::save(store, settings, shared).await;
+    let result = if desk.edits_stale(settings) {
+        Err(Refused::Stale)
+    } else {
+        desk::save(store, settings, shared).await
+    };
     let _ = write!(answer, "\r\nweb page: ");
     tell_saved(&result, settings, answer);
     let dropped = desk.answer(settings, result);

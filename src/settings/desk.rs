@@ -53,6 +53,9 @@ pub enum Refused {
     Flash(StoreError),
     /// Nobody owns the settings (the console task is not running).
     NoOwner,
+    /// The edits were made on settings that have been saved over since (a page loaded
+    /// before a save on the console): saved, they would undo that save.
+    Stale,
 }
 
 impl fmt::Display for Refused {
@@ -71,6 +74,10 @@ impl fmt::Display for Refused {
                 "not saved: the flash failed ({e}); the settings in effect are unchanged"
             ),
             Self::NoOwner => f.write_str("not saved: the settings are not available yet"),
+            Self::Stale => f.write_str(
+                "not saved: the settings were saved elsewhere since they were shown here; \
+                 these are the settings now, make the change again",
+            ),
         }
     }
 }
@@ -253,6 +260,15 @@ impl Desk {
                 }
             }
         })
+    }
+
+    /// The owner, after [`Desk::take_edits`]: whether the edits now in `settings` were made
+    /// on other saved settings than the owner's set aside, which it saved since they were
+    /// copied. Saved, they would undo that save: answer them [`Refused::Stale`].
+    pub fn edits_stale(&self, settings: &Settings) -> bool {
+        self.pending.lock(
+            |cell| matches!(&*cell.borrow(), Slot::SetAside(own) if !own.same_saved(settings)),
+        )
     }
 
     /// The owner: answers the request whose edits it took. A refused save puts the settings

@@ -216,6 +216,24 @@ struct Layer {
     overridden: Keys,
 }
 
+impl Layer {
+    /// Hands each override (its key's id and value text), then each route point (the
+    /// route's id and the point's text), to `put`; `None` if `put` or a value's text fails.
+    fn entries(&self, mut put: impl FnMut(u8, &[u8]) -> Option<()>) -> Option<()> {
+        for key in self.overridden.iter() {
+            let mut value = heapless::String::<MAX_VALUE>::new();
+            key.write(&self.config, &mut value).ok()?;
+            put(key.id(), value.as_bytes())?;
+        }
+        for point in &self.config.route {
+            let mut value = heapless::String::<MAX_VALUE>::new();
+            point.write(&mut value).ok()?;
+            put(ROUTE_ID, value.as_bytes())?;
+        }
+        Some(())
+    }
+}
+
 /// The defaults, the saved settings in effect, and the edits not yet saved.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
@@ -328,19 +346,37 @@ impl Settings {
         let mut blob = Blob { out, len: 0 };
         blob.push(MAGIC)?;
         blob.push(&[VERSION])?;
-        for key in self.edited.overridden.iter() {
-            let mut value = heapless::String::<MAX_VALUE>::new();
-            key.write(&self.edited.config, &mut value).ok()?;
-            blob.push(&[key.id(), value.len() as u8])?;
-            blob.push(value.as_bytes())?;
-        }
-        for point in &self.edited.config.route {
-            let mut value = heapless::String::<MAX_VALUE>::new();
-            point.write(&mut value).ok()?;
-            blob.push(&[ROUTE_ID, value.len() as u8])?;
-            blob.push(value.as_bytes())?;
-        }
+        self.edited.entries(|id, value| {
+            blob.push(&[id, value.len() as u8])?;
+            blob.push(value)
+        })?;
         Some(blob.len)
+    }
+
+    /// A number that changes whenever what is saved does (a 32-bit FNV-1a hash of the saved
+    /// overrides and route), so that a form can tell whether the settings it was shown are
+    /// still those saved. The `web-pin` is left out: the number is shown on the page, which
+    /// shows every other value, and would otherwise let a PIN be found by trying them all.
+    pub fn saved_stamp(&self) -> u32 {
+        let mut hash: u32 = 0x811c_9dc5;
+        let mut mix = |bytes: &[u8]| {
+            for &byte in bytes {
+                hash = (hash ^ u32::from(byte)).wrapping_mul(0x0100_0193);
+            }
+        };
+        let _ = self.saved.entries(|id, value| {
+            if id != Key::WebPin.id() {
+                mix(&[id, value.len() as u8]);
+                mix(value);
+            }
+            Some(())
+        });
+        hash
+    }
+
+    /// Whether `other` has the same settings saved.
+    pub fn same_saved(&self, other: &Settings) -> bool {
+        self.saved == other.saved
     }
 
     /// Settings over `defaults` with the overrides of `blob` saved, and what was wrong

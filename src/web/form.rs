@@ -12,8 +12,11 @@
 //!    other PIN check waiting behind it, so a 4-digit PIN takes hours to guess. With no PIN
 //!    saved, the page is read-only: 403, and how to set one on the console.
 //! 3. The form starts from the saved settings (changes typed on the console and not saved
-//!    are dropped, as the console tells). A field equal to the value the page showed changes
-//!    nothing; an empty field returns its setting to the default (`unset`); any other value
+//!    are dropped, as the console tells). The page's form carries `saved`, the
+//!    [`Settings::saved_stamp`] of the settings it showed: if they have been saved over
+//!    since (on the console), the form is refused with 409 and nothing saved, since its
+//!    fields would put the values it showed back. A field equal to the value the page
+//!    showed changes nothing; an empty field returns its setting to the default (`unset`); any other value
 //!    is set, and an invalid one is refused with 400 and what the setting allows, nothing
 //!    saved. A setting not in the form stays as saved. `web-pin` shows as `****`, which
 //!    keeps the PIN.
@@ -43,6 +46,9 @@ pub const MASKED_PIN: &str = "****";
 
 /// The field that carries the PIN.
 const PIN_FIELD: &str = "pin";
+
+/// The field that carries the [`Settings::saved_stamp`] of the settings the page showed.
+pub const SAVED_FIELD: &str = "saved";
 
 /// Longest field name decoded: longer than any setting's.
 const NAME_MAX: usize = 32;
@@ -164,7 +170,8 @@ impl Problem {
                 Refused::NothingChanged
                 | Refused::Conflict(_)
                 | Refused::Busy(_)
-                | Refused::TooLarge,
+                | Refused::TooLarge
+                | Refused::Stale,
             ) => 409,
             Self::Refused(_) => 500,
         }
@@ -212,7 +219,7 @@ async fn apply(desk: &Desk, body: &[u8]) -> Result<Saved, Problem> {
     if body.len() > FORM_MAX {
         return Err(Problem::TooLong);
     }
-    let pin = check_fields(body)?;
+    let (pin, shown) = check_fields(body)?;
     // Only the PIN is held across the PIN check's wait, not a copy of the settings (a few
     // KiB in this future, which the board keeps in static RAM).
     let saved_pin = desk
@@ -222,6 +229,9 @@ async fn apply(desk: &Desk, body: &[u8]) -> Result<Saved, Problem> {
         .web_pin;
     check_pin(saved_pin, pin).await?;
     desk.save_with(|settings| {
+        if shown.is_some_and(|shown| shown != settings.saved_stamp()) {
+            return Err(Problem::Refused(Refused::Stale));
+        }
         settings.revert();
         for field in fields(body) {
             let (mut name, mut value) = ([0; NAME_MAX], [0; MAX_VALUE]);
@@ -234,15 +244,22 @@ async fn apply(desk: &Desk, body: &[u8]) -> Result<Saved, Problem> {
     .await
 }
 
-/// Checks every field of `body` (escapes, names, no field twice) before anything changes;
-/// the `pin` field's text, still encoded, if there is one.
-fn check_fields(body: &[u8]) -> Result<Option<&[u8]>, Problem> {
-    let (mut seen, mut pin) = (Keys::EMPTY, None);
+/// Checks every field of `body` (escapes, names, no field twice, a `saved` stamp that is a
+/// number) before anything changes; the `pin` field's text, still encoded, and the `saved`
+/// stamp, if there are.
+fn check_fields(body: &[u8]) -> Result<(Option<&[u8]>, Option<u32>), Problem> {
+    let (mut seen, mut pin, mut shown) = (Keys::EMPTY, None, None);
     for field in fields(body) {
         let (mut name, mut value) = ([0; NAME_MAX], [0; MAX_VALUE]);
-        let (kind, _) = field.decode(&mut name, &mut value)?;
+        let (kind, text) = field.decode(&mut name, &mut value)?;
         let twice = match kind {
             Field::Pin => pin.replace(field.value).is_some(),
+            Field::Saved => {
+                let stamp = text
+                    .parse()
+                    .map_err(|_| Problem::Value(kind, Malformed::Stamp))?;
+                shown.replace(stamp).is_some()
+            }
             Field::Key(key) => {
                 let twice = seen.contains(key);
                 seen.insert(key);
@@ -253,7 +270,12 @@ fn check_fields(body: &[u8]) -> Result<Option<&[u8]>, Problem> {
             return Err(Problem::Twice(kind));
         }
     }
-    Ok(pin)
+    Ok((pin, shown))
+}
+
+/// The `saved` stamp a posted `form` carries, if it carries a valid one.
+pub(super) fn posted_stamp(form: &[u8]) -> Option<u32> {
+    check_fields(form).ok()?.1
 }
 
 /// Checks the form's `pin` (still encoded) against the saved one.
@@ -349,6 +371,8 @@ pub(super) fn typed_value<'v>(
 enum Field {
     /// The PIN.
     Pin,
+    /// The stamp of the settings the page showed.
+    Saved,
     /// A setting.
     Key(Key),
 }
@@ -358,6 +382,7 @@ impl Field {
     fn name(self) -> &'static str {
         match self {
             Self::Pin => PIN_FIELD,
+            Self::Saved => SAVED_FIELD,
             Self::Key(key) => key.name(),
         }
     }
@@ -403,6 +428,9 @@ impl Encoded<'_> {
         if name == PIN_FIELD {
             return Ok(Field::Pin);
         }
+        if name == SAVED_FIELD {
+            return Ok(Field::Saved);
+        }
         let mut unknown = heapless::String::new();
         Ok(Field::Key(Key::from_name(name).ok_or_else(|| {
             // The name was decoded into as many bytes as this holds.
@@ -421,6 +449,8 @@ enum Malformed {
     NotUtf8,
     /// Longer than the buffer.
     TooLong,
+    /// Not a number, where the field holds one (`saved`).
+    Stamp,
 }
 
 impl fmt::Display for Malformed {
@@ -429,6 +459,7 @@ impl fmt::Display for Malformed {
             Self::Escape => "has a `%` not followed by two hex digits",
             Self::NotUtf8 => "is not UTF-8 text",
             Self::TooLong => "is too long",
+            Self::Stamp => "is not a number (is the page outdated?)",
         })
     }
 }

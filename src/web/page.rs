@@ -3,7 +3,9 @@
 
 use core::fmt::{self, Write};
 
-use super::form::{FORM_MAX, MASKED_PIN, MESSAGE_MAX, Posted, typed_value};
+use super::form::{
+    FORM_MAX, MASKED_PIN, MESSAGE_MAX, Posted, SAVED_FIELD, posted_stamp, typed_value,
+};
 use super::{HEAD_LEN, escape, escaped_len, head};
 use crate::proto::xml::number::F32_TEXT_MAX;
 use crate::settings::text::{MAX_LIGHT_PRESETS, MAX_PIN_DIGITS};
@@ -81,8 +83,16 @@ fn page(
     posted_form: &[u8],
     out: &mut dyn Write,
 ) -> fmt::Result {
+    // A refused form's fields come back as they were typed, unless the settings it was
+    // made on have been saved over since: then the page shows them as they are now.
+    let stamp = settings.map(Settings::saved_stamp);
     let refused_form = match posted {
-        Some(posted) if posted.status != 200 => posted_form,
+        Some(posted)
+            if posted.status != 200
+                && posted_stamp(posted_form).is_none_or(|shown| Some(shown) == stamp) =>
+        {
+            posted_form
+        }
         _ => &[],
     };
     out.write_str(head())?;
@@ -127,6 +137,11 @@ fn page(
     }
     out.write_str("</div>")?;
     if form {
+        write!(
+            out,
+            "<input type=hidden name=\"{SAVED_FIELD}\" value=\"{}\">",
+            saved.saved_stamp()
+        )?;
         out.write_str(
             "<div class=row><label for=pin>PIN</label>\
              <input id=pin name=pin type=password inputmode=numeric autocomplete=off>\
