@@ -20,7 +20,7 @@ use x30_panel::app::{Shared, Snapshot};
 use x30_panel::config::Config;
 use x30_panel::console::commands::{Action, execute};
 use x30_panel::console::line::{Input, LINE_MAX, LineEditor};
-use x30_panel::console::{self, Answer, PROMPT, Reboot};
+use x30_panel::console::{self, ANSWER_MAX, Answer, PROMPT, Reboot};
 use x30_panel::panel::indicators::LinkState;
 use x30_panel::panel::monitor::Stamped;
 use x30_panel::panel::{Busy, Button, ButtonEvent};
@@ -342,6 +342,32 @@ fn an_unknown_pose_is_not_taken() {
         }
     }
     assert_eq!(s, before);
+}
+
+/// A pose whose numbers are written long (a robot just off the origin) is a dock point
+/// all the same, as it is a route point.
+#[test]
+fn dock_here_takes_a_pose_written_long() {
+    let mut s = Settings::new(Config::default());
+    let status = RobotStatus {
+        motion_state: MotionState::StandingUp,
+        pos_x: 1.2345678e-20,
+        pos_y: -1.2345678e-20,
+        pos_z: 1.2345678e-20,
+        yaw: -1.2345678e-20,
+        ..RobotStatus::UNAVAILABLE
+    };
+    let (action, answer) = run_line(
+        "dock here",
+        &mut s,
+        Some(&connected(status, Instant::now())),
+    );
+    assert_eq!(action, Action::Save, "{answer}");
+    let dock = s.edited().dock.expect("a dock point");
+    assert_eq!(
+        (dock.pos_x, dock.pos_y, dock.pos_z, dock.angle_yaw),
+        (1.2345678e-20, -1.2345678e-20, 1.2345678e-20, -1.2345678e-20)
+    );
 }
 
 #[test]
@@ -920,6 +946,69 @@ fn route_points_are_added_shown_and_cleared() {
     assert!(full.contains("the route is full (32 points)"), "{full}");
     run_line("route clear", &mut s, None);
     assert!(s.edited().route.is_empty());
+}
+
+/// A full route of realistic coordinates is shown whole, with room for the prompt; one of
+/// numbers too long for the answer shows as many points as fit and says how many more.
+#[test]
+fn route_show_shows_a_full_route_or_says_what_it_left_out() {
+    let mut s = Settings::new(Config::default());
+    for _ in 0..MAX_ROUTE {
+        let (_, added) = run_line(
+            "route add -12.345678 -23.456789 -0.012345678 -1.2345678 transition",
+            &mut s,
+            None,
+        );
+        assert!(added.starts_with("point "), "{added}");
+    }
+    let (_, shown) = run_line("route show", &mut s, None);
+    let lines: Vec<&str> = shown.lines().collect();
+    assert_eq!(lines.len(), MAX_ROUTE + 1, "{shown}");
+    assert_eq!(
+        lines[MAX_ROUTE - 1],
+        "32. 32,1,-12.345678,-23.456789,-0.012345678,-1.2345678,transition"
+    );
+    assert_eq!(lines[MAX_ROUTE], "(not saved: `save` keeps it)");
+    assert!(
+        shown.len() + PROMPT.len() <= ANSWER_MAX,
+        "{} bytes",
+        shown.len()
+    );
+
+    let mut s = Settings::new(Config::default());
+    let tiny = "0.0000000000000000000000000000000000000011754944";
+    let line = format!("route add -{tiny} -{tiny} -{tiny} -{tiny} transition");
+    for _ in 0..MAX_ROUTE {
+        run_line(&line, &mut s, None);
+    }
+    assert_eq!(s.edited().route.len(), MAX_ROUTE);
+    let (_, shown) = run_line("route show", &mut s, None);
+    let more = shown
+        .lines()
+        .find(|line| line.starts_with("... and "))
+        .expect("says what it left out");
+    let listed = shown
+        .lines()
+        .filter(|line| {
+            line.trim_start()
+                .split_once(". ")
+                .is_some_and(|(n, _)| n.parse::<u8>().is_ok())
+        })
+        .count();
+    assert!(listed > 0 && listed < MAX_ROUTE, "{listed} listed");
+    assert_eq!(
+        more,
+        format!(
+            "... and {} more points, too long to show here",
+            MAX_ROUTE - listed
+        )
+    );
+    assert!(shown.ends_with("(not saved: `save` keeps it)\n"), "{shown}");
+    assert!(
+        shown.len() + PROMPT.len() <= ANSWER_MAX,
+        "{} bytes",
+        shown.len()
+    );
 }
 
 #[tokio::test(flavor = "current_thread")]

@@ -8,10 +8,10 @@ use super::Answer;
 use crate::app::Snapshot;
 use crate::panel::indicators::LinkState;
 use crate::proto::codes::NOT_REPORTED;
-use crate::proto::xml::number::parse_f32;
+use crate::proto::xml::number::{F32_TEXT_MAX, parse_f32};
 use crate::settings::route::{DEFAULT_POINT_INFO, MAX_ROUTE, RoutePoint, parse_point_info};
 use crate::settings::text::NONE;
-use crate::settings::{Key, LoadProblem, Settings, write_f32};
+use crate::settings::{Key, LoadProblem, MAX_VALUE, Settings, write_f32};
 
 /// How old the robot's status may be for `dock here` to take its pose.
 pub const POSE_MAX_AGE: Duration = Duration::from_secs(2);
@@ -314,7 +314,8 @@ fn dock(
     let Some(pose) = robot_pose(snapshot, now, answer) else {
         return Action::Answered;
     };
-    let mut text = heapless::String::<96>::new();
+    // As long as any dock value: a pose far out or very small takes 48 characters a number.
+    let mut text = heapless::String::<MAX_VALUE>::new();
     let _ = write!(text, "{point},{map}");
     for value in pose {
         let _ = text.push(',');
@@ -457,7 +458,16 @@ fn add_route_point(
     let _ = writeln!(answer, " (not saved: `save` keeps it)");
 }
 
-/// `route show`.
+/// The most a point's line of `route show` takes: its number, and the point as
+/// [`RoutePoint::write`] writes it, each number at its longest.
+const ROUTE_LINE_MAX: usize = 4 + 2 * 11 + 1 + 4 * (1 + F32_TEXT_MAX) + 1 + 10 + 2;
+
+/// Room `route show` leaves after its points: the note that the route is not saved, and the
+/// prompt the console adds.
+const AFTER_ROUTE: usize = 64;
+
+/// `route show`: every point, unless the numbers are too long for them all to fit the
+/// answer, then as many as fit and how many more there are.
 fn show_route(settings: &Settings, answer: &mut Answer) {
     let route = &settings.edited().route;
     if route.is_empty() {
@@ -466,7 +476,12 @@ fn show_route(settings: &Settings, answer: &mut Answer) {
             "no route: `route add here` at each point, then `save`"
         );
     }
-    for point in route {
+    for (shown, point) in route.iter().enumerate() {
+        if answer.capacity().saturating_sub(answer.len()) < ROUTE_LINE_MAX + AFTER_ROUTE {
+            let more = route.len() - shown;
+            let _ = writeln!(answer, "... and {more} more points, too long to show here");
+            break;
+        }
         let _ = write!(answer, "{:>2}. ", point.point);
         let _ = point.write(answer);
         let _ = writeln!(answer);

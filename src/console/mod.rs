@@ -36,8 +36,9 @@ use line::{Input, LineEditor};
 /// The prompt, printed when the console waits for a command.
 pub const PROMPT: &str = "x30> ";
 
-/// Most text one answer prints; `show` is the longest.
-pub const ANSWER_MAX: usize = 2048;
+/// Most text one answer prints: `show`, or `route show` with 32 points of eight-digit
+/// coordinates (2.1 KiB).
+pub const ANSWER_MAX: usize = 4096;
 
 /// An answer being written: text, cut short rather than failing if it overflows.
 pub type Answer = heapless::String<ANSWER_MAX>;
