@@ -826,7 +826,8 @@ async fn a_save_whose_caller_gave_up_keeps_the_owners_settings_from_the_next_one
     };
     let (result, lost) = steady(async { tokio::join!(desk.save_with(edit("0.4")), owner) }).await;
     assert_eq!(result, Ok(saved));
-    assert_eq!(lost.iter().collect::<Vec<_>>(), [Key::Repeat]);
+    assert_eq!(lost.keys.iter().collect::<Vec<_>>(), [Key::Repeat]);
+    assert!(!lost.route);
 }
 
 /// Edits copied from the published settings while the owner was saving its own: once
@@ -950,6 +951,42 @@ fn route_points_are_added_shown_and_cleared() {
 
 /// A full route of realistic coordinates is shown whole, with room for the prompt; one of
 /// numbers too long for the answer shows as many points as fit and says how many more.
+/// Route points added and not saved count as changes not saved, wherever those are told:
+/// `status`, `reboot`, and a save from the web page, which drops them.
+#[tokio::test(flavor = "current_thread")]
+async fn an_unsaved_route_is_told_as_a_change_not_saved() {
+    let mut s = Settings::new(Config::default());
+    run_line("route add 1 2 0 0", &mut s, None);
+    let (_, status) = run_line("status", &mut s, Some(&snapshot()));
+    assert!(status.contains("unsaved    route\n"), "{status}");
+    let (_, reboot) = run_line("reboot", &mut s, None);
+    assert!(reboot.contains("changes not saved are dropped"), "{reboot}");
+    // The web page's edits, saved, replace them: the owner is told they were lost.
+    let desk = Desk::new();
+    desk.publish(&s);
+    let owner = async {
+        desk.request().await;
+        assert!(desk.take_edits(&mut s));
+        let saved = desk::Saved {
+            keys: s.unsaved(),
+            took: Duration::from_millis(5),
+            erases: 0,
+            moved: false,
+            route: false,
+        };
+        desk.answer(&mut s, Ok(saved))
+    };
+    let edit = desk.save_with(|edited| {
+        edited.revert();
+        edited.set(Key::Repeat, "300").unwrap();
+        Ok::<_, Refused>(())
+    });
+    let (result, lost) = steady(async { tokio::join!(edit, owner) }).await;
+    assert!(result.is_ok(), "{result:?}");
+    assert!(lost.route, "the route typed on the console is lost");
+    assert_eq!(lost.to_string(), "route");
+}
+
 #[test]
 fn route_show_shows_a_full_route_or_says_what_it_left_out() {
     let mut s = Settings::new(Config::default());

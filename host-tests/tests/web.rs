@@ -31,6 +31,7 @@ use x30_panel::proto::message::{
     Battery, MotorTemperatures, NavTaskState, Perception, Response, RobotStatus,
 };
 use x30_panel::settings::desk::Desk;
+use x30_panel::settings::route::RoutePoint;
 use x30_panel::settings::store::{BUF_LEN, Store};
 use x30_panel::settings::{Key, MAX_VALUE, Settings};
 use x30_panel::web::{
@@ -720,6 +721,16 @@ fn the_page_shows_what_is_saved_and_names_changes_typed_on_the_console() {
     assert_eq!(value("repeat-ms"), "250");
     assert!(
         text.contains("Changed on the console and not saved: speed-forward, repeat-ms."),
+        "{text}"
+    );
+    // Route points added on the console are such changes too.
+    let mut routed = with_pin();
+    routed
+        .add_route_point(RoutePoint::parse("1,1,2,0,0,0,task").unwrap())
+        .unwrap();
+    let text = page(Some(&routed), None);
+    assert!(
+        text.contains("Changed on the console and not saved: route."),
         "{text}"
     );
     let starting = page(None, None);

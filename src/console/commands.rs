@@ -67,7 +67,7 @@ pub fn execute(
         "dock" => dock(rest, settings, snapshot, now, answer),
         "route" => route(rest, settings, snapshot, now, answer),
         "reboot" if rest.is_empty() => {
-            if !settings.unsaved().is_empty() {
+            if !settings.unsaved_changes().is_empty() {
                 let _ = writeln!(answer, "changes not saved are dropped");
             }
             let _ = writeln!(answer, "rebooting");
@@ -278,7 +278,7 @@ fn status(
         (None, true) => writeln!(answer, "the last command failed"),
         (None, false) => writeln!(answer, "none"),
     };
-    let unsaved = settings.unsaved();
+    let unsaved = settings.unsaved_changes();
     if !unsaved.is_empty() {
         let _ = write!(answer, "unsaved    ");
         let _ = write!(answer, "{unsaved}");

@@ -18,7 +18,7 @@ use embassy_time::{Duration, Instant};
 use embedded_storage_async::nor_flash::NorFlash;
 
 use super::store::{BLOB_MAX, BUF_LEN, Store, StoreError};
-use super::{Conflict, Keys, Settings};
+use super::{Conflict, Keys, Settings, Unsaved};
 use crate::app::Shared;
 use crate::panel::Busy;
 
@@ -95,7 +95,7 @@ pub fn busy(shared: &Shared) -> Option<Busy> {
 
 /// Whether `settings`' edits may be saved while the panel is `busy` (or not).
 pub fn check(settings: &Settings, busy: Option<Busy>) -> Result<(), Refused> {
-    if settings.unsaved().is_empty() && !settings.route_unsaved() {
+    if settings.unsaved_changes().is_empty() {
         return Err(Refused::NothingChanged);
     }
     settings.check().map_err(Refused::Conflict)?;
@@ -274,16 +274,20 @@ impl Desk {
     /// The owner: answers the request whose edits it took. A refused save puts the settings
     /// set aside back in `settings`; a save drops them, and this returns their changes that
     /// were not saved (so lost), if any.
-    pub fn answer(&self, settings: &mut Settings, result: Result<Saved, Refused>) -> Keys {
+    pub fn answer(&self, settings: &mut Settings, result: Result<Saved, Refused>) -> Unsaved {
+        let nothing = Unsaved {
+            keys: Keys::EMPTY,
+            route: false,
+        };
         let lost = self.pending.lock(|cell| {
             let slot = core::mem::replace(&mut *cell.borrow_mut(), Slot::Empty);
             match (slot, &result) {
                 (Slot::SetAside(own), Err(_)) => {
                     *settings = own;
-                    Keys::EMPTY
+                    nothing
                 }
-                (Slot::SetAside(own), Ok(_)) => own.unsaved(),
-                _ => Keys::EMPTY,
+                (Slot::SetAside(own), Ok(_)) => own.unsaved_changes(),
+                _ => nothing,
             }
         });
         self.replies.signal(result);

@@ -138,6 +138,33 @@ impl fmt::Display for Keys {
     }
 }
 
+/// What differs between the edited settings and the saved ones: keys, and the route.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Unsaved {
+    /// The keys whose edited value differs from the saved one.
+    pub keys: Keys,
+    /// Whether the edited route differs from the saved one.
+    pub route: bool,
+}
+
+impl Unsaved {
+    /// Whether nothing differs.
+    pub fn is_empty(&self) -> bool {
+        self.keys.is_empty() && !self.route
+    }
+}
+
+impl fmt::Display for Unsaved {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.keys)?;
+        match (self.route, self.keys.is_empty()) {
+            (false, _) => Ok(()),
+            (true, true) => f.write_str("route"),
+            (true, false) => f.write_str(", route"),
+        }
+    }
+}
+
 /// The bit of `key` in [`Keys`].
 fn bit(key: Key) -> u32 {
     1 << (key.id() % 32)
@@ -306,6 +333,14 @@ impl Settings {
             }
         }
         keys
+    }
+
+    /// Everything not saved: [`Settings::unsaved`] and [`Settings::route_unsaved`].
+    pub fn unsaved_changes(&self) -> Unsaved {
+        Unsaved {
+            keys: self.unsaved(),
+            route: self.route_unsaved(),
+        }
     }
 
     /// Sets `key` to `text` in the edited settings; on error nothing changes.

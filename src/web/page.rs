@@ -112,7 +112,7 @@ fn page(
     // The page shows, and its form starts from, what is saved.
     let mut saved = settings.clone();
     saved.revert();
-    let typed = settings.unsaved();
+    let typed = settings.unsaved_changes();
     if !typed.is_empty() {
         out.write_str("<p class=note>Changed on the console and not saved: ")?;
         write!(out, "{typed}")?;
