@@ -207,6 +207,23 @@ fn show_tells_values_and_where_they_come_from() {
     assert_eq!(one.trim_end(), format!("{:<18} = none  [default]", "dock"));
 }
 
+/// Nor is it when it is set or unset: `unset` puts the build's PIN back, which whoever
+/// reads the console did not type.
+#[test]
+fn set_and_unset_never_print_the_pin() {
+    let mut defaults = Config::default();
+    Key::WebPin.apply(&mut defaults, "8642").unwrap();
+    let mut s = Settings::new(defaults);
+    let (_, set) = run_line("set web-pin 9753", &mut s, None);
+    assert_eq!(
+        set.trim_end(),
+        "web-pin = **** (not saved: `save` keeps it)"
+    );
+    let (_, unset) = run_line("unset web-pin", &mut s, None);
+    assert_eq!(unset.trim_end(), "web-pin = **** (as saved)");
+    assert!(!unset.contains("8642"), "{unset}");
+}
+
 #[test]
 fn set_checks_the_value_and_names_what_is_allowed() {
     let mut s = Settings::new(Config::default());

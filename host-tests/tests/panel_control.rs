@@ -438,6 +438,30 @@ fn an_unanswered_zero_velocity_is_not_sent_again_once_a_navigation_task_started(
     assert!(c.task_running(order.id));
 }
 
+/// Driving when the command connection dropped: a zero velocity is due when it is back.
+/// But a dock pressed meanwhile, whose task the navigation connection started first, drives
+/// the robot now: that zero velocity would take the robot out of it, and does not go.
+#[test]
+fn a_zero_velocity_due_after_an_outage_does_not_go_once_a_navigation_task_started() {
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Forward, 0);
+    assert_eq!(drain(&mut c, at(0)), [FORWARD]);
+    c.connection(ConnectionState::Connecting);
+    c.press(Button::Dock, 100);
+    let order = c.take_task(at(100)).expect("the dock task");
+    c.task_started(order.id, at(100));
+    c.connection(ConnectionState::Open);
+    assert_eq!(drain(&mut c, at(600)), []);
+    assert!(c.task_running(order.id));
+    // Without the task, it goes.
+    let mut c = connected_with(&with_dock());
+    c.press(Button::Forward, 0);
+    assert_eq!(drain(&mut c, at(0)), [FORWARD]);
+    c.connection(ConnectionState::Connecting);
+    c.connection(ConnectionState::Open);
+    assert_eq!(drain(&mut c, at(600)), [ZERO]);
+}
+
 #[test]
 fn stop_sends_zero_velocity_and_ends_held_motion() {
     let mut c = connected();

@@ -251,6 +251,8 @@ fn light_presets() {
         "FF8000:50:steady:x",
         "ÿÿÿ:50",
         "FF8000:-5",
+        "+F+F+F:50",
+        "-1FF00:50",
     ] {
         assert_eq!(parse_light(bad), None, "{bad:?}");
     }

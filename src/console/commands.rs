@@ -151,13 +151,7 @@ fn show(rest: &str, settings: &Settings, answer: &mut Answer) -> Action {
 /// One line of `show`: `name = value  [default]`.
 fn show_key(key: Key, settings: &Settings, answer: &mut Answer) {
     let _ = write!(answer, "{:<18} = ", key.name());
-    let config = settings.edited();
-    if key == Key::WebPin && config.web_pin.is_some() {
-        // The PIN guards the web page; whoever reads the console needs no copy of it.
-        let _ = answer.push_str("****");
-    } else {
-        let _ = key.write(config, answer);
-    }
+    write_shown(key, settings, answer);
     let origin = if settings.is_overridden(key) {
         "set"
     } else {
@@ -205,10 +199,22 @@ fn unset(rest: &str, settings: &mut Settings, answer: &mut Answer) -> Action {
     Action::Answered
 }
 
+/// Writes `key`'s edited value as the console shows it: a PIN as `****`.
+fn write_shown(key: Key, settings: &Settings, answer: &mut Answer) {
+    let config = settings.edited();
+    if key == Key::WebPin && config.web_pin.is_some() {
+        // The PIN guards the web page; whoever reads the console needs no copy of it (nor
+        // of the build's, which `unset web-pin` puts back).
+        let _ = answer.push_str("****");
+    } else {
+        let _ = key.write(config, answer);
+    }
+}
+
 /// The answer to a change: the new value, and that it is not saved yet.
 fn changed(key: Key, settings: &Settings, answer: &mut Answer) {
     let _ = write!(answer, "{} = ", key.name());
-    let _ = key.write(settings.edited(), answer);
+    write_shown(key, settings, answer);
     let note = if settings.unsaved().contains(key) {
         " (not saved: `save` keeps it)"
     } else {

@@ -612,9 +612,15 @@ impl Control {
         }
     }
 
-    /// A zero velocity waiting for its answer need no longer go again after an outage.
+    /// A navigation task started: it drives the robot now, and a zero velocity would take
+    /// the robot out of it. One waiting for its answer need no longer go again after an
+    /// outage, nor one due again after an outage that is not yet written (the command
+    /// connection came back after the navigation connection wrote the task).
     fn settle_zero_velocity(&mut self) {
-        if let ZeroVelocity::Unanswered { .. } = self.zero_velocity {
+        if matches!(
+            self.zero_velocity,
+            ZeroVelocity::Unanswered { .. } | ZeroVelocity::Again
+        ) {
             self.zero_velocity = ZeroVelocity::No;
         }
     }

@@ -419,7 +419,8 @@ pub fn parse_light(text: &str) -> Option<LightText> {
         Some(e) if e.eq_ignore_ascii_case("breathing") => true,
         Some(_) => return None,
     };
-    if parts.next().is_some() || rgb.len() != 6 {
+    // Six hex digits, no sign: `from_str_radix` alone would take `+F+F+F`.
+    if parts.next().is_some() || rgb.len() != 6 || !rgb.bytes().all(|b| b.is_ascii_hexdigit()) {
         return None;
     }
     // `get` rather than slicing: a non-ASCII character must not panic on a char boundary.
