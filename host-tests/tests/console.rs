@@ -565,10 +565,8 @@ async fn saving_reports_what_needs_a_reboot() {
     assert!(!saved(&flash).await.config().dhcp);
 }
 
-#[tokio::test(flavor = "current_thread")]
-async fn a_button_event_not_yet_taken_in_keeps_the_flash_untouched() {
-    let flash = flash();
-    let shared = Shared::new();
+/// The e-stop pressed, as the board's button task hands it to the panel.
+fn press_estop(shared: &Shared) {
     shared
         .buttons
         .try_send(ButtonEvent {
@@ -577,6 +575,13 @@ async fn a_button_event_not_yet_taken_in_keeps_the_flash_untouched() {
             at: Instant::now(),
         })
         .unwrap();
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_button_event_not_yet_taken_in_keeps_the_flash_untouched() {
+    let flash = flash();
+    let shared = Shared::new();
+    press_estop(&shared);
     let (screen, _) = session(&flash, &shared, None, "set repeat-ms 300\rsave\r").await;
     assert!(
         screen.contains("not saved: a stop is going out"),
@@ -612,14 +617,7 @@ async fn an_estop_pressed_while_a_save_reads_the_pages_holds_its_erase_back() {
     // After one turn of its own: the save has started, and passed its check, by then.
     let press = || async {
         tokio::task::yield_now().await;
-        shared
-            .buttons
-            .try_send(ButtonEvent {
-                button: Button::Estop,
-                pressed: true,
-                at: Instant::now(),
-            })
-            .unwrap();
+        press_estop(shared);
     };
     // Saves, each with the press coming at its first turn to the other tasks, until one
     // needs a page erased: the saves before it wrote without erasing.

@@ -902,19 +902,12 @@ async fn post(shared: &Shared, settings: Settings, body: &[u8]) -> (Posted, Opti
 #[tokio::test(flavor = "current_thread")]
 async fn the_form_as_the_page_fills_it_in_saves_just_what_was_changed() {
     let settings = with_pin();
-    let text = page(Some(&settings), None);
-    let mut fields = inputs(&text);
-    for (name, value) in &mut fields {
-        if name == "speed-forward" {
-            *value = "0.3".into();
-        }
-    }
-    let mut fields: Vec<(&str, &str)> = fields
-        .iter()
-        .map(|(n, v)| (n.as_str(), v.as_str()))
-        .collect();
-    fields.push(("pin", "2468"));
-    let (posted, saved) = post(&Shared::new(), settings, &form(&fields)).await;
+    let body = form_with(
+        &inputs(&page(Some(&settings), None)),
+        "speed-forward",
+        "0.3",
+    );
+    let (posted, saved) = post(&Shared::new(), settings, &body).await;
     assert_eq!(posted.status, 200, "{}", posted.message);
     assert_eq!(posted.message, "saved speed-forward");
     let saved = saved.expect("saved");
@@ -934,6 +927,17 @@ async fn the_form_as_the_page_fills_it_in_saves_just_what_was_changed() {
     );
 }
 
+/// The page's form as it was filled in (`inputs`), with `name` changed to `value`, posted
+/// with the PIN.
+fn form_with(inputs: &[(String, String)], name: &str, value: &str) -> Vec<u8> {
+    let mut fields: Vec<(&str, &str)> = inputs
+        .iter()
+        .map(|(n, v)| (n.as_str(), if n == name { value } else { v.as_str() }))
+        .collect();
+    fields.push(("pin", "2468"));
+    form(&fields)
+}
+
 /// The page loaded, then a change saved on the console: the page's form, posted with
 /// another field edited, is refused rather than putting back the value the page showed,
 /// and the page then shows the settings as they are now.
@@ -948,21 +952,7 @@ async fn a_form_from_before_a_save_on_the_console_is_refused_and_undoes_nothing(
     let mut now = settings.clone();
     now.set(Key::Repeat, "300").unwrap();
     now.commit();
-    let mut fields: Vec<(&str, &str)> = shown
-        .iter()
-        .map(|(n, v)| {
-            (
-                n.as_str(),
-                if n == "speed-forward" {
-                    "0.3"
-                } else {
-                    v.as_str()
-                },
-            )
-        })
-        .collect();
-    fields.push(("pin", "2468"));
-    let body = form(&fields);
+    let body = form_with(&shown, "speed-forward", "0.3");
     let (posted, saved) = post(&Shared::new(), now.clone(), &body).await;
     assert_eq!(posted.status, 409, "{}", posted.message);
     assert!(
@@ -980,21 +970,8 @@ async fn a_form_from_before_a_save_on_the_console_is_refused_and_undoes_nothing(
     );
     // The page as it is now saves.
     let fresh = inputs(&page(Some(&now), None));
-    let mut fields: Vec<(&str, &str)> = fresh
-        .iter()
-        .map(|(n, v)| {
-            (
-                n.as_str(),
-                if n == "speed-forward" {
-                    "0.3"
-                } else {
-                    v.as_str()
-                },
-            )
-        })
-        .collect();
-    fields.push(("pin", "2468"));
-    let (posted, saved) = post(&Shared::new(), now, &form(&fields)).await;
+    let body = form_with(&fresh, "speed-forward", "0.3");
+    let (posted, saved) = post(&Shared::new(), now, &body).await;
     assert_eq!(posted.status, 200, "{}", posted.message);
     assert_eq!(posted.message, "saved speed-forward");
     assert_eq!(
