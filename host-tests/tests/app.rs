@@ -595,6 +595,10 @@ enum Wedge {
     /// At the first request there this long after the start, on every connection: the
     /// robot reads nothing anywhere from then on.
     From(StdDuration),
+    /// Just before the first request `.1` there, having answered the motion it read from
+    /// `.0` after the start only once `.1` came: the answer to a repeat written just before
+    /// an e-stop comes after the e-stop, and the handler hangs.
+    AnsweringMotionLate(StdDuration, Box<Request>),
 }
 
 /// A robot whose handler of a connection wedges, as if it had stopped reading just before
@@ -618,6 +622,8 @@ fn robot_wedging(
             std::thread::spawn(move || {
                 let mut state = MotionState::StandingUp;
                 let mut decoder = FrameDecoder::new();
+                // Motion answers `Wedge::AnsweringMotionLate` holds back.
+                let mut held = Vec::new();
                 while let Some((id, request)) = read_request(&mut stream, &mut decoder) {
                     let wedges = match &wedge {
                         Wedge::Before(before, every) => {
@@ -625,15 +631,24 @@ fn robot_wedging(
                         }
                         Wedge::At(at) => accepted_at < *at && start.elapsed() >= *at,
                         Wedge::From(at) => start.elapsed() >= *at,
+                        Wedge::AnsweringMotionLate(_, before) => {
+                            request == **before && !wedged.swap(true, Ordering::SeqCst)
+                        }
                     };
                     if wedges {
+                        let _ = stream.write_all(&held);
                         // Open and unread until the test is over.
                         std::thread::sleep(StdDuration::from_secs(30));
                         return;
                     }
+                    let holds = matches!(&wedge, Wedge::AnsweringMotionLate(from, _)
+                        if start.elapsed() >= *from
+                            && matches!(request, Request::Motion(MotionCommand::Move(..))));
                     let response = scripted_answer(&request, &mut state);
                     recorder.record(request);
-                    if stream.write_all(&answer(id, &response)).is_err() {
+                    if holds {
+                        held.extend(answer(id, &response));
+                    } else if stream.write_all(&answer(id, &response)).is_err() {
                         break;
                     }
                 }
@@ -854,6 +869,39 @@ async fn an_estop_a_wedged_robot_never_read_goes_on_a_new_connection_at_once() {
     let (addr, log, _) = robot_wedging(start, Wedge::Before(Box::new(estop), false));
     let after = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
         drive_briefly(shared, &log).await;
+        estop_taken_up_after(shared, &log, start).await
+    })
+    .await;
+    assert!(
+        after.is_some_and(|after| after < 1.2),
+        "the e-stop reached the robot {after:?} s after the press: {log:?}"
+    );
+}
+
+/// A robot that answers the motion repeat written just before an e-stop only after the
+/// e-stop reached it, then hangs, gets the e-stop's repeat on a new connection half a second
+/// after that repeat was written: the answer that came after the first e-stop says nothing
+/// of the repeat, which it never read. (The first e-stop hid it until it was given up on,
+/// 1.5 s after the press.)
+#[tokio::test(flavor = "current_thread")]
+async fn an_estop_behind_a_repeats_late_answer_goes_on_a_new_connection_at_once() {
+    let start = std::time::Instant::now();
+    let estop = Request::Motion(MotionCommand::SoftEmergencyStop);
+    let wedge = Wedge::AnsweringMotionLate(StdDuration::from_secs(2), Box::new(estop));
+    let (addr, log, _) = robot_wedging(start, wedge);
+    let forward = Request::Motion(MotionCommand::Move(Direction::Forward, Speed::Default));
+    let after = with_app_links(&mut links(addr, backoff()), &config(), async |shared| {
+        drive_briefly(shared, &log).await;
+        sleep_until(start, 2000).await;
+        let since = log.lock().unwrap().len();
+        press(shared, Button::Forward, true).await;
+        assert!(
+            wait_until(3000, || log.lock().unwrap()[since..]
+                .iter()
+                .any(|(_, r)| *r == forward))
+            .await,
+            "the robot read the forward"
+        );
         estop_taken_up_after(shared, &log, start).await
     })
     .await;
