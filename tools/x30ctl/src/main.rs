@@ -49,6 +49,23 @@ impl Ctx {
         Connection::connect(&self.robot, self.connect_timeout, self.timeout)
     }
 
+    /// A new connection to the robot, unless Ctrl-C was pressed by the time it is made: a
+    /// connect may take up to `--connect-timeout-ms`, and what the caller writes on it must
+    /// not go out after the operator asked to stop. `what` names what is then not sent.
+    pub fn connect_unless_interrupted(
+        &self,
+        interrupts: &Interrupts,
+        what: &str,
+    ) -> Result<Connection, Error> {
+        let conn = self.connect()?;
+        if interrupts.count() > 0 {
+            return Err(Error::Interrupted(format!(
+                "interrupted by Ctrl-C while connecting: {what} not sent"
+            )));
+        }
+        Ok(conn)
+    }
+
     /// The connection in `conn`, unless there is none or the robot has closed it (a robot
     /// that hangs up after each answer): then a new one, which takes its place.
     pub fn reuse<'c>(&self, conn: &'c mut Option<Connection>) -> Result<&'c mut Connection, Error> {
@@ -59,6 +76,21 @@ impl Ctx {
             Some(c) => Ok(conn.insert(c)),
             None => Ok(conn.insert(self.connect()?)),
         }
+    }
+
+    /// Asks `request` on `conn`, connecting first if needed. A connection that had
+    /// answered before and is found closed before this answer (a robot that hangs up after
+    /// each answer, whose close may come just after the check [`Ctx::reuse`] makes, or one
+    /// that restarted meanwhile) is replaced by a new one, and the request asked once more
+    /// there: for queries, which change nothing on the robot.
+    pub fn ask(&self, conn: &mut Option<Connection>, request: &Request) -> Result<Answer, Error> {
+        if let Some(c) = conn.as_mut() {
+            match c.request(request) {
+                Err(Error::Closed { .. }) => {}
+                answered => return answered,
+            }
+        }
+        conn.insert(self.connect()?).request(request)
     }
 
     /// Prints an answer in the chosen format.
@@ -91,6 +123,12 @@ impl Interrupts {
     /// How many times Ctrl-C was pressed.
     pub fn count(&self) -> usize {
         self.0.load(Ordering::SeqCst)
+    }
+
+    /// A count as if Ctrl-C had been pressed `times` times, for tests.
+    #[cfg(test)]
+    pub fn pressed(times: usize) -> Self {
+        Self(Arc::new(AtomicUsize::new(times)))
     }
 }
 

@@ -77,24 +77,10 @@ pub fn run(ctx: &Ctx, args: &WatchArgs) -> Result<(), Error> {
 /// Takes one snapshot, connecting first if needed.
 fn snapshot(ctx: &Ctx, conn: &mut Option<Connection>) -> Result<Snapshot, Error> {
     Ok(Snapshot {
-        status: ask(ctx, conn, &Request::Status)?,
-        battery: ask(ctx, conn, &Request::Battery)?,
-        perception: ask(ctx, conn, &Request::Perception)?,
+        status: ctx.ask(conn, &Request::Status)?,
+        battery: ctx.ask(conn, &Request::Battery)?,
+        perception: ctx.ask(conn, &Request::Perception)?,
     })
-}
-
-/// Asks `request` on `conn`, connecting first if needed. A connection that had answered
-/// before and is found closed before this answer (a robot that hangs up after each
-/// answer, or one that restarted between refreshes) is replaced by a new one, and the
-/// request asked once more there: these queries change nothing on the robot.
-fn ask(ctx: &Ctx, conn: &mut Option<Connection>, request: &Request) -> Result<Answer, Error> {
-    if let Some(c) = conn.as_mut() {
-        match c.request(request) {
-            Err(Error::Closed { .. }) => {}
-            answered => return answered,
-        }
-    }
-    conn.insert(ctx.connect()?).request(request)
 }
 
 fn show(ctx: &Ctx, tty: bool, refresh: u64, result: &Result<Snapshot, Error>) {

@@ -776,7 +776,7 @@ fn record_refuses_to_overwrite_and_records_nothing_without_a_pose() {
     assert!(sim.requests().is_empty());
 
     // With --force it records, but only poses worth having: not from an unavailable status,
-    // nor from one that does not say whether the robot is localised.
+    // nor from one that does not say whether the robot is localised, nor an unknown pose.
     let refusals = [
         (
             false,
@@ -790,6 +790,24 @@ fn record_refuses_to_overwrite_and_records_nothing_without_a_pose() {
                 ..Faults::default()
             },
             "point 1 not recorded: the robot does not report whether it is localised",
+        ),
+        // Localised, but its pose unknown (`nan`) or left out: a route of `null` points
+        // that `route show` and `route run` refuse would be written.
+        (
+            true,
+            Faults {
+                unknown_pose: true,
+                ..Faults::default()
+            },
+            "point 1 not recorded: the robot reports no pose",
+        ),
+        (
+            true,
+            Faults {
+                leave_out: vec!["PosZ".to_owned()],
+                ..Faults::default()
+            },
+            "point 1 not recorded: the robot reports no pose",
         ),
     ];
     let path = file.arg();

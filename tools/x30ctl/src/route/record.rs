@@ -169,8 +169,7 @@ fn stdin_lines() -> Receiver<String> {
 
 /// The robot's status now, if it gives a pose worth recording; otherwise why not.
 fn pose(ctx: &Ctx, conn: &mut Option<Connection>) -> Result<RobotStatus, String> {
-    let c = ctx.reuse(conn).map_err(|e| e.to_string())?;
-    let answer = c.request(&Request::Status).map_err(|e| {
+    let answer = ctx.ask(conn, &Request::Status).map_err(|e| {
         // The next point starts afresh: this connection may hold a late answer or be dead.
         *conn = None;
         e.to_string()
@@ -178,6 +177,14 @@ fn pose(ctx: &Ctx, conn: &mut Option<Connection>) -> Result<RobotStatus, String>
     match answer.response {
         Response::Status(s) if s.is_unavailable() => Err(render::STATUS_UNAVAILABLE.to_owned()),
         Response::Status(s) => match s.location {
+            // A pose item left out reads as `nan` too.
+            Some(Location::Localized)
+                if ![s.pos_x, s.pos_y, s.pos_z, s.yaw]
+                    .iter()
+                    .all(|v| v.is_finite()) =>
+            {
+                Err("the robot reports no pose (PosX, PosY, PosZ or Yaw unknown)".to_owned())
+            }
             Some(Location::Localized) => Ok(s),
             Some(other) => Err(format!(
                 "the robot is not localised ({}), so its pose means nothing",
