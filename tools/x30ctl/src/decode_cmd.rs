@@ -1,7 +1,7 @@
 //! `decode`: frames from a capture, printed decoded.
 //!
-//! The input is hex text (whitespace, newlines, `0x` prefixes, commas and `#` comments
-//! allowed) or the raw bytes of a TCP stream. It is run through the same decoder a
+//! The input is hex text (whitespace, newlines, `0x`-prefixed bytes such as `0x1` or
+//! `0x01`, commas and `#` comments allowed) or the raw bytes of a TCP stream. It is run through the same decoder a
 //! connection uses, so what is reported here (garbage before a sync sequence, oversize
 //! frames, a truncated last frame) is exactly how x30ctl would see that stream from a
 //! robot. A header whose reserved bytes are not zero is read like any other, as x30ctl and
@@ -148,11 +148,23 @@ fn parse_hex(input: &[u8]) -> Result<Vec<u8>, String> {
     let mut digits = Vec::new();
     for (number, line) in strip_comments(text).enumerate() {
         for token in line.split(|c: char| c.is_whitespace() || c == ',') {
-            let token = token
+            let prefixed = token
                 .strip_prefix("0x")
-                .or_else(|| token.strip_prefix("0X"))
-                .unwrap_or(token);
-            for c in token.chars() {
+                .or_else(|| token.strip_prefix("0X"));
+            // A `0x` token is one byte, and may be written with one digit (`0x1`, as
+            // Python's `hex` writes it): padded, not run into the next token's digits.
+            match prefixed.map(str::len) {
+                Some(1) => digits.push(0),
+                Some(2) => {}
+                Some(_) => {
+                    return Err(format!(
+                        "decode: line {}: {token:?} is not one byte (0x and one or two hex digits)",
+                        number + 1
+                    ));
+                }
+                None => {}
+            }
+            for c in prefixed.unwrap_or(token).chars() {
                 let digit = c.to_digit(16).ok_or_else(|| {
                     format!("decode: line {}: {c:?} is not a hex digit", number + 1)
                 })?;
@@ -658,6 +670,17 @@ mod tests {
         assert_eq!(
             parse_hex(b"eb 90 EB90\n0x01, 0x02 # c\n"),
             Ok(vec![0xEB, 0x90, 0xEB, 0x90, 1, 2])
+        );
+        // One digit after 0x is one byte, not half of one run into the next token's.
+        assert_eq!(
+            parse_hex(b"0xeb, 0x90, 0x1, 0x0, 0xA"),
+            Ok(vec![0xEB, 0x90, 1, 0, 0xA])
+        );
+        assert!(parse_hex(b"0x").is_err(), "a prefix without its byte");
+        assert!(
+            parse_hex(b"0xeb90").is_err_and(|e| e.contains("is not one byte")),
+            "{:?}",
+            parse_hex(b"0xeb90")
         );
         assert!(parse_hex(b"abc").is_err());
     }

@@ -117,7 +117,19 @@ pub fn run(ctx: &Ctx, args: &MoveArgs, interrupts: &Interrupts) -> Result<(), Er
                 } else {
                     Ok(c)
                 };
-                match open.and_then(|c| c.send(&request)) {
+                let c = match open {
+                    Ok(c) => c,
+                    Err(e) => break failed(&mut conn, e),
+                };
+                // A new connection may have taken up to the connect timeout: a Ctrl-C or the
+                // end of the duration meanwhile sends no more motion.
+                if interrupts.count() > 0 {
+                    break Ended::Interrupted;
+                }
+                if Instant::now() >= end {
+                    break Ended::Done;
+                }
+                match c.send(&request) {
                     Ok(message_id) => sent.pending.push_back((message_id, Instant::now())),
                     Err(e) => break failed(&mut conn, e),
                 }

@@ -203,7 +203,7 @@ pub fn run(ctx: &Ctx, args: &NavArgs, interrupts: &Interrupts) -> Result<(), Err
         Some(seconds) => Some(crate::seconds_arg("nav", "--nav-timeout", seconds)?),
     };
 
-    let mut conn = ctx.connect()?;
+    let mut conn = ctx.connect_unless_interrupted(interrupts, "the navigation task")?;
     let message_id = conn.send(&request)?;
     if !ctx.json {
         note(&format!(
@@ -243,5 +243,46 @@ pub fn run(ctx: &Ctx, args: &NavArgs, interrupts: &Interrupts) -> Result<(), Err
     match render::failure("nav", &end.answer.response) {
         Some(message) => Err(Error::Failed(message)),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cli::{Cli, Command};
+    use clap::Parser;
+    use std::io::Read;
+    use std::net::TcpListener;
+
+    /// Ctrl-C pressed by the time the connection is made (a connect may take up to the
+    /// connect timeout): no task goes out, and `nav` ends as interrupted.
+    #[test]
+    fn a_ctrl_c_while_connecting_sends_no_task() {
+        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+        let addr = listener.local_addr().expect("addr").to_string();
+        let robot = thread::spawn(move || {
+            let (mut stream, _) = listener.accept().expect("the client connects");
+            let _ = stream.set_read_timeout(Some(Duration::from_secs(2)));
+            let mut written = Vec::new();
+            // Until the client closes (or the bound): what it wrote.
+            let _ = stream.read_to_end(&mut written);
+            written
+        });
+        let args = [
+            "x30ctl", "--robot", &addr, "nav", "--map-id", "1", "--x", "1", "--y", "0",
+        ];
+        let Command::Nav(nav) = Cli::try_parse_from(args).expect("valid arguments").command else {
+            panic!("parsed as another command");
+        };
+        let ctx = Ctx {
+            robot: addr,
+            connect_timeout: Duration::from_secs(2),
+            timeout: Duration::from_secs(2),
+            json: false,
+        };
+        let result = run(&ctx, &nav, &Interrupts::pressed(1));
+        assert!(matches!(result, Err(Error::Interrupted(_))), "{result:?}");
+        let written = robot.join().expect("the robot's thread");
+        assert!(written.is_empty(), "{} bytes written", written.len());
     }
 }

@@ -327,8 +327,12 @@ impl Runner<'_> {
             if self.interrupts.count() > 0 {
                 return Err(interrupted(at));
             }
-            match self.ctx.connect() {
+            match self
+                .ctx
+                .connect_unless_interrupted(self.interrupts, "the point")
+            {
                 Ok(conn) => return Ok(conn),
+                Err(Error::Interrupted(_)) => return Err(interrupted(at)),
                 Err(e @ Error::Connect { .. }) => {
                     let Some(&wait) = retries.next() else {
                         return Err(Stop { at, cause: e });
