@@ -711,6 +711,7 @@ fn record_from_a_simulated_walk_writes_a_route_that_runs() {
 /// connection; without, every other point failed on the connection it had closed.
 #[test]
 fn record_reads_each_pose_from_a_robot_that_hangs_up_after_each_answer() {
+    const POINTS: usize = 32;
     let sim = sim(1.0);
     sim.set_faults(Faults {
         hang_up_after_answer: true,
@@ -718,7 +719,9 @@ fn record_reads_each_pose_from_a_robot_that_hangs_up_after_each_answer() {
     });
     let file = TempFile::new("hung-up.json");
     let mut record = spawn_interactive(&sim, &["route", "record", &file.arg(), "--map-id", "2"]);
-    for at in 1..=3 {
+    // Many points, each asked for as soon as the last is in: the robot's close may come
+    // just after x30ctl looked whether the connection was still open.
+    for at in 1..=POINTS {
         record.send("");
         record.expect_line(&format!("point {at} (Value {at})"), RUN_LIMIT);
     }
@@ -726,7 +729,7 @@ fn record_reads_each_pose_from_a_robot_that_hangs_up_after_each_answer() {
     record
         .finish(RUN_LIMIT)
         .expect_code(0)
-        .stdout_has(&format!("route {}: 3 point(s) recorded", file.arg()));
+        .stdout_has(&format!("route {}: {POINTS} point(s) recorded", file.arg()));
 }
 
 #[test]
