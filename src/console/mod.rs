@@ -29,7 +29,7 @@ use embassy_futures::select::{Either, select};
 use crate::app::Shared;
 use crate::settings::desk::{self, Desk, Refused, Saved};
 use crate::settings::store::Store;
-use crate::settings::{Key, LoadProblem, Settings};
+use crate::settings::{Key, LoadProblem, Settings, Unsaved};
 use commands::Action;
 use line::{Input, LineEditor};
 
@@ -192,14 +192,11 @@ pub fn tell_saved(result: &Result<Saved, Refused>, settings: &Settings, answer: 
             return;
         }
     };
-    let _ = write!(answer, "saved {}", saved.keys);
-    if saved.route {
-        let _ = answer.push_str(if saved.keys.is_empty() {
-            "route"
-        } else {
-            ", route"
-        });
-    }
+    let changes = Unsaved {
+        keys: saved.keys,
+        route: saved.route,
+    };
+    let _ = write!(answer, "saved {changes}");
     let _ = write!(answer, " in {} ms", saved.took.as_millis());
     // A field engineer sees what an erase costs on this board (it stalls some chips).
     match saved.erases {

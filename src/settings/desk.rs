@@ -116,8 +116,7 @@ pub async fn save<F: NorFlash>(
     let mut blob = [0u8; BLOB_MAX];
     let len = settings.emit(&mut blob).ok_or(Refused::TooLarge)?;
     let mut scratch = [0u8; BUF_LEN];
-    let keys = settings.unsaved();
-    let route = settings.route_unsaved();
+    let Unsaved { keys, route } = settings.unsaved_changes();
     let moved = settings.edited().robot != settings.config().robot;
     let started = Instant::now();
     let result = store
@@ -275,19 +274,15 @@ impl Desk {
     /// set aside back in `settings`; a save drops them, and this returns their changes that
     /// were not saved (so lost), if any.
     pub fn answer(&self, settings: &mut Settings, result: Result<Saved, Refused>) -> Unsaved {
-        let nothing = Unsaved {
-            keys: Keys::EMPTY,
-            route: false,
-        };
         let lost = self.pending.lock(|cell| {
             let slot = core::mem::replace(&mut *cell.borrow_mut(), Slot::Empty);
             match (slot, &result) {
                 (Slot::SetAside(own), Err(_)) => {
                     *settings = own;
-                    nothing
+                    Unsaved::NONE
                 }
                 (Slot::SetAside(own), Ok(_)) => own.unsaved_changes(),
-                _ => nothing,
+                _ => Unsaved::NONE,
             }
         });
         self.replies.signal(result);

@@ -148,6 +148,12 @@ pub struct Unsaved {
 }
 
 impl Unsaved {
+    /// Nothing differs.
+    pub const NONE: Self = Self {
+        keys: Keys::EMPTY,
+        route: false,
+    };
+
     /// Whether nothing differs.
     pub fn is_empty(&self) -> bool {
         self.keys.is_empty() && !self.route
